@@ -1,0 +1,72 @@
+"""Exact form factor from a differential area to a triangle, clipped at the receiver's horizon.
+
+Lambert's contour formula (Cohen and Wallace, "Radiosity and Realistic Image Synthesis", 1993,
+eq. 4.20; Baum, Rushmeier and Winget 1989):
+
+    F(dA -> A) = 1/(2 pi) * sum_k gamma_k * n . (R_k x R_k+1) / |R_k x R_k+1|
+
+with R_k the unit vectors from the point to the polygon's vertices, gamma_k the angle between
+R_k and R_k+1, and n the receiver's normal. It holds only for the part of the polygon above the
+receiver's tangent plane, so the triangle is clipped to that half-space first. A triangle shines
+from its front only: a point behind its plane gets zero.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def point_to_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(n,) float64 form factors from points (n, 3) with unit normals (n, 3) to the front of
+    triangles (n, 3, 3), pairwise, without occlusion."""
+    relative = triangles - points[:, None, :]  # (n, 3, 3)
+    x, y, z = relative[..., 0], relative[..., 1], relative[..., 2]  # (n, 3) each
+    ex, ey, ez = x[:, 1] - x[:, 0], y[:, 1] - y[:, 0], z[:, 1] - z[:, 0]
+    fx, fy, fz = x[:, 2] - x[:, 0], y[:, 2] - y[:, 0], z[:, 2] - z[:, 0]
+    # the point is in front when (e x f) . (v0 - point) < 0
+    facing = (ey * fz - ez * fy) * x[:, 0] + (ez * fx - ex * fz) * y[:, 0] + (ex * fy - ey * fx) * z[:, 0] < 0
+    height = relative @ normals[:, :, None]  # (n, 3, 1) above the receiver's plane
+    height = height[..., 0]
+    result = np.zeros(len(points))
+    above = facing & (height.max(axis=1) > 0)
+    whole = above & (height.min(axis=1) >= 0)
+    index = np.flatnonzero(whole)
+    result[index] = _contour(relative[index], normals[index])
+    index = np.flatnonzero(above & ~whole)
+    if len(index):
+        result[index] = _contour(_clip_above(relative[index], height[index]), normals[index])
+    return result
+
+
+def _contour(polygon: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """Lambert's sum over closed polygons (n, k, 3) given relative to the point."""
+    length = np.sqrt(np.einsum("nkx,nkx->nk", polygon, polygon))
+    unit = polygon / np.maximum(length, np.finfo(float).tiny)[..., None]
+    ux, uy, uz = unit[..., 0], unit[..., 1], unit[..., 2]
+    following = np.r_[1 : polygon.shape[1], 0]
+    vx, vy, vz = ux[:, following], uy[:, following], uz[:, following]
+    cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    sine = np.sqrt(cx * cx + cy * cy + cz * cz)
+    gamma = np.arctan2(sine, ux * vx + uy * vy + uz * vz)
+    projected = cx * normals[:, 0:1] + cy * normals[:, 1:2] + cz * normals[:, 2:3]
+    terms = np.divide(gamma * projected, sine, out=np.zeros_like(sine), where=sine > 0)
+    return np.abs(terms.sum(axis=1)) / (2 * np.pi)
+
+
+def _clip_above(corners: np.ndarray, height: np.ndarray) -> np.ndarray:
+    """Sutherland-Hodgman clip of triangles (n, 3, 3) to height >= 0, as 6 ordered slots per
+    triangle (each vertex, then the crossing on the edge that follows it); unused slots repeat
+    the previous used point so they add zero-length edges to the contour."""
+    following = np.roll(corners, -1, axis=1)
+    next_height = np.roll(height, -1, axis=1)
+    inside = height >= 0
+    crosses = inside != (next_height >= 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(crosses, height / (height - next_height), 0.0)
+    crossing = corners + t[..., None] * (following - corners)
+    slots = np.stack([corners, crossing], axis=2).reshape(len(corners), 6, 3)
+    used = np.stack([inside, crosses], axis=2).reshape(len(corners), 6)
+    # forward-fill unused slots cyclically from the last used one
+    twice = np.concatenate([used, used], axis=1)
+    latest = np.maximum.accumulate(np.where(twice, np.arange(12), 0), axis=1)[:, 6:] % 6
+    return np.take_along_axis(slots, latest[..., None], axis=1)

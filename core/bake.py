@@ -1,0 +1,191 @@
+"""bake(): a Scene in, per-corner radiosity out, through discretise -> form factors -> solve ->
+gather at the receiver nodes -> per-corner colours."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from . import solvers
+from .discretize import Discretization, discretize
+from .formfactors import METHODS, FormFactorEngine
+from .progress import Progress, ProgressCallback
+from .scene import Scene
+
+AUTO_PATCH_DIVISIONS = 6  # default patch size: the scene's extent over this
+
+
+@dataclass(frozen=True)
+class BakeSettings:
+    """The knobs of a bake, validated on construction.
+
+    patch_size : longest patch edge in scene units; None picks extent / 6.
+    crease_angle : degrees; faces meeting at a sharper angle do not share a vertex colour.
+    hemicube_resolution : pixels across the hemicube's top face (even).
+    rays_per_form_factor : visibility rays per point-to-patch form factor (a perfect square).
+    tolerance : stop when the estimated fraction of light not yet distributed (progressive) or
+        the bound on the relative error (Jacobi, Gauss-Seidel) is below this.
+    ambient : progressive only: add the ambient estimate of the light not yet shot.
+    max_shots, max_iterations : hard limits for the solvers (None: generous defaults).
+    memory_budget : bytes the explicit matrix of Jacobi / Gauss-Seidel may take.
+    column_cache : bytes of form-factor columns progressive refinement may keep for reshooting.
+    seed : fixes the ray-casting sample positions.
+    """
+
+    patch_size: float | None = None
+    crease_angle: float = 30.0
+    hemicube_resolution: int = 64
+    rays_per_form_factor: int = 16
+    tolerance: float = 1e-3
+    ambient: bool = True
+    max_shots: int | None = None
+    max_iterations: int = 100_000
+    memory_budget: int = 2 << 30
+    column_cache: int = 256 << 20
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.patch_size is not None and not (math.isfinite(self.patch_size) and self.patch_size > 0):
+            raise ValueError(f"patch_size must be a positive length or None, got {self.patch_size}")
+        if not 0 <= self.crease_angle <= 180:
+            raise ValueError(f"crease_angle must be in [0, 180] degrees, got {self.crease_angle}")
+        if not 0 < self.tolerance < 1:
+            raise ValueError(f"tolerance must be in (0, 1), got {self.tolerance}")
+        for name in ("hemicube_resolution", "rays_per_form_factor", "max_iterations", "memory_budget", "column_cache"):
+            if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 0:
+                raise ValueError(f"{name} must be a non-negative integer, got {getattr(self, name)}")
+
+
+@dataclass
+class BakeResult:
+    """corner_colors (T, 3, 3): RGB radiosity at each corner of each input triangle.
+    triangle_radiosity (T, 3): area-weighted mean radiosity of each input triangle.
+    stats: what the bake measured (seconds per stage, shots or iterations, rays, ...)."""
+
+    corner_colors: np.ndarray
+    triangle_radiosity: np.ndarray
+    stats: dict = field(default_factory=dict)
+
+
+def bake(
+    scene: Scene,
+    method: str = "raycast",
+    solver: str = "progressive",
+    progress: ProgressCallback | None = None,
+    **knobs,
+) -> BakeResult:
+    """Solve B = E + rho F B on ``scene`` and return colours per triangle corner.
+
+    method: "hemicube" or "raycast"; solver: "progressive", "jacobi" or "gauss_seidel";
+    ``knobs`` are the fields of BakeSettings. ``progress(fraction, message)`` is called at least
+    every 0.2 s; if it returns False the bake raises BakeCancelled.
+    """
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    if solver not in solvers.SOLVERS:
+        raise ValueError(f"solver must be one of {solvers.SOLVERS}, got {solver!r}")
+    settings = BakeSettings(**knobs)
+    stages = Progress(progress)
+    seconds: dict[str, float] = {}
+    clock = time.perf_counter()
+
+    stages.stage("discretising", 0.0, 0.02)
+    patch_size = settings.patch_size if settings.patch_size is not None else scene.extent / AUTO_PATCH_DIVISIONS
+    mesh = discretize(scene, patch_size, math.radians(settings.crease_angle))
+    channels = 1 if scene.is_grey else 3
+    seconds["discretise"], clock = _lap(clock)
+
+    engine = FormFactorEngine(mesh, method, settings.hemicube_resolution, settings.rays_per_form_factor, settings.seed)
+    reflectance = mesh.patch_reflectance[:, :channels]
+    emission = mesh.patch_emission[:, :channels]
+    peak = _base_bytes(mesh)
+    node_reflectance = mesh.node_reflectance[:, :channels]
+    node_emission = mesh.node_emission[:, :channels]
+    node_radiosity = None
+    if solver == "progressive":
+        stages.stage("shooting", 0.02, 0.85 if method == "hemicube" else 1.0)
+        nodes_receive = method == "raycast"  # the hemicube cannot shoot to points: gather after
+        radiosity, passive, solve_stats = solvers.progressive(
+            engine.shooting_columns, mesh.patch_areas, reflectance, emission,
+            node_reflectance if nodes_receive else None, node_emission if nodes_receive else None,
+            tolerance=settings.tolerance, ambient=settings.ambient, max_shots=settings.max_shots,
+            cache_bytes=settings.column_cache, report=stages.report,
+        )
+        if nodes_receive:
+            node_radiosity = passive
+        peak += min(settings.column_cache, solve_stats["cached_columns"] * 8 * (mesh.patch_count + mesh.node_count))
+        seconds["solve"], clock = _lap(clock)
+    else:
+        matrix_bytes = 8 * mesh.patch_count**2
+        if matrix_bytes > settings.memory_budget:
+            raise ValueError(
+                f"the {solver} solver needs a {mesh.patch_count:,} x {mesh.patch_count:,} form-factor matrix "
+                f"({matrix_bytes / 2**30:.2f} GiB), over the memory budget of {settings.memory_budget / 2**30:.2f} GiB; "
+                "use solver='progressive', a larger patch_size, or raise memory_budget"
+            )
+        stages.stage("form factors", 0.02, 0.6)
+        matrix = engine.patch_rows(np.arange(mesh.patch_count), lambda f: stages.report(f, "matrix"))
+        seconds["form_factors"], clock = _lap(clock)
+        stages.stage("solving", 0.6, 0.85)
+        solve = solvers.jacobi if solver == "jacobi" else solvers.gauss_seidel
+        radiosity, solve_stats = solve(matrix, reflectance, emission, settings.tolerance, settings.max_iterations, stages.report)
+        peak += matrix_bytes
+        seconds["solve"], clock = _lap(clock)
+
+    if node_radiosity is None:
+        stages.stage("gathering at vertices", 0.85, 1.0)
+        node_radiosity = node_emission + node_reflectance * engine.gather(
+            mesh.node_points, mesh.node_normals, radiosity, lambda f: stages.report(f)
+        )
+        seconds["gather"], clock = _lap(clock)
+    corner_colors, triangle_radiosity = _per_corner(scene, mesh, radiosity, node_radiosity)
+    seconds["reconstruct"], clock = _lap(clock)
+    stages.report(1.0, "done", force=True)
+
+    stats = {
+        "method": method,
+        "solver": solver,
+        "settings": asdict(settings) | {"patch_size": patch_size},
+        "triangles": len(scene.triangles),
+        "patches": mesh.patch_count,
+        "nodes": mesh.node_count,
+        "channels": channels,
+        "seconds": seconds | {"total": sum(seconds.values())},
+        "rays_cast": engine.rays_cast,
+        "peak_memory_estimate": peak,
+        **solve_stats,
+    }
+    return BakeResult(corner_colors, triangle_radiosity, stats)
+
+
+def _lap(start: float) -> tuple[float, float]:
+    now = time.perf_counter()
+    return now - start, now
+
+
+def _base_bytes(mesh: Discretization) -> int:
+    """Rough size of the discretisation and the solver's vectors."""
+    return sum(value.nbytes for value in vars(mesh).values() if isinstance(value, np.ndarray)) + 64 * mesh.patch_count
+
+
+def _per_corner(scene: Scene, mesh: Discretization, radiosity: np.ndarray, node_radiosity: np.ndarray):
+    """Corner colours from the nodes, triangle means from the front patches, RGB float64."""
+    count = len(scene.triangles)
+    rgb = np.broadcast_to(radiosity, (len(radiosity), 3)) if radiosity.shape[1] == 1 else radiosity
+    nodes = np.broadcast_to(node_radiosity, (len(node_radiosity), 3)) if node_radiosity.shape[1] == 1 else node_radiosity
+    corner_node = mesh.corner_node
+    corner_colors = np.where(
+        (corner_node >= 0)[..., None], nodes[np.maximum(corner_node, 0)], scene.emission[:, None, :]
+    )
+    front = slice(0, mesh.front_patch_count)
+    owner = mesh.patch_triangle[front]
+    weights = mesh.patch_areas[front]
+    area = np.bincount(owner, weights=weights, minlength=count)
+    sums = np.stack([np.bincount(owner, weights=weights * rgb[front, c], minlength=count) for c in range(3)], axis=1)
+    triangle_radiosity = np.where(
+        (area > 0)[:, None], sums / np.where(area > 0, area, 1.0)[:, None], corner_colors.mean(axis=1)
+    )
+    return np.ascontiguousarray(corner_colors), triangle_radiosity

@@ -1,0 +1,247 @@
+"""Discretisation: input triangles -> patches (shooters and receivers of the linear system) and
+receiver nodes (the points where output colours are evaluated).
+
+Patches are the input triangles split regularly into congruent sub-triangles no longer than the
+patch size; the back of a two-sided triangle is a second set of patches facing the other way.
+Receiver nodes are one per distinct (vertex, material, smooth normal): the corners of the input
+triangles around a vertex are merged across edges whose faces share a material and meet at less
+than the crease angle, so colour may jump at creases and material borders.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .geometry import areas_and_normals, barycentric_grid, longest_edges, triangle_corners
+from .scene import Scene
+
+# A triangle whose area is below this fraction of its longest edge squared is treated as having
+# zero area (its normal is rounding noise). An aspect ratio of 1e4 is 1e-4, far above this.
+DEGENERATE_AREA_RATIO = 1e-14
+# Vertices closer than this fraction of the scene's extent are one vertex for node merging.
+WELD_TOLERANCE = 1e-9
+# A node is evaluated this fraction of the way from its vertex towards the centre of its faces,
+# inside its own surface (as Cycles bakes a corner slightly inside the corner's face): at the
+# vertex itself, a surface touching it is seen exactly edge-on and its form factor is undefined.
+NODE_INSET = 1e-3
+MAX_PATCHES = 4_000_000
+
+
+@dataclass(frozen=True)
+class Discretization:
+    """Patches (P of them) and receiver nodes (N) of a scene; all arrays float64 unless noted.
+
+    patch_corners : (P, 3, 3) corner positions, front-facing by the right-hand rule.
+    patch_areas, patch_normals, patch_centroids : (P,), (P, 3), (P, 3).
+    patch_reflectance, patch_emission : (P, C) with C = 3 channels.
+    patch_triangle : (P,) int, the input triangle each patch comes from.
+    front_patch_count : patches [0, F) are front sides, [F, P) the backs of two-sided triangles.
+    back_of_front : (F,) int, index of the back patch of each front patch, or -1.
+    node_points, node_normals : (N, 3) where and facing which way each node is evaluated.
+    node_reflectance, node_emission : (N, C).
+    corner_node : (T, 3) int, node of each corner of each input triangle, -1 where a zero-area
+        triangle has no neighbour to take colour from.
+    """
+
+    patch_corners: np.ndarray
+    patch_areas: np.ndarray
+    patch_normals: np.ndarray
+    patch_centroids: np.ndarray
+    patch_reflectance: np.ndarray
+    patch_emission: np.ndarray
+    patch_triangle: np.ndarray
+    front_patch_count: int
+    back_of_front: np.ndarray
+    node_points: np.ndarray
+    node_normals: np.ndarray
+    node_reflectance: np.ndarray
+    node_emission: np.ndarray
+    corner_node: np.ndarray
+
+    @property
+    def patch_count(self) -> int:
+        return len(self.patch_areas)
+
+    @property
+    def node_count(self) -> int:
+        return len(self.node_points)
+
+
+def discretize(scene: Scene, patch_size: float | None = None, crease_angle: float = np.radians(30)) -> Discretization:
+    """Split ``scene`` into patches no longer than ``patch_size`` (None: one patch per triangle)
+    and group triangle corners into receiver nodes (``crease_angle`` in radians)."""
+    corners = triangle_corners(scene.vertices, scene.triangles)
+    areas, normals = areas_and_normals(corners)
+    degenerate = areas <= DEGENERATE_AREA_RATIO * longest_edges(corners) ** 2
+    if degenerate.all():
+        raise ValueError("every triangle of the scene has zero area: there is nothing to light")
+    divisions = _divisions(corners, degenerate, patch_size)
+    front = _split_triangles(corners, divisions)
+    patch_triangle = front["triangle"]
+    sides = [front["corners"]]
+    back_of_front = np.full(len(patch_triangle), -1, dtype=np.int64)
+    back = np.flatnonzero(scene.two_sided[patch_triangle])
+    if len(back):
+        back_of_front[back] = len(patch_triangle) + np.arange(len(back))
+        sides.append(front["corners"][back][:, ::-1])
+        patch_triangle = np.concatenate([patch_triangle, patch_triangle[back]])
+    patch_corners = np.concatenate(sides)
+    patch_areas, patch_normals = areas_and_normals(patch_corners)
+    nodes = _receiver_nodes(scene, corners, areas, normals, degenerate, crease_angle)
+    return Discretization(
+        patch_corners=patch_corners,
+        patch_areas=patch_areas,
+        patch_normals=patch_normals,
+        patch_centroids=patch_corners.mean(axis=1),
+        patch_reflectance=scene.reflectance[patch_triangle],
+        patch_emission=scene.emission[patch_triangle],
+        patch_triangle=patch_triangle,
+        front_patch_count=len(back_of_front),
+        back_of_front=back_of_front,
+        **nodes,
+    )
+
+
+def _divisions(corners: np.ndarray, degenerate: np.ndarray, patch_size: float | None) -> np.ndarray:
+    """(T,) int: edge divisions per triangle, 0 for zero-area triangles (they make no patch)."""
+    if patch_size is None:
+        divisions = np.ones(len(corners), dtype=np.int64)
+    else:
+        if not np.isfinite(patch_size) or patch_size <= 0:
+            raise ValueError(f"patch_size must be a positive length, got {patch_size}")
+        divisions = np.maximum(1, np.ceil(longest_edges(corners) / patch_size)).astype(np.int64)
+    divisions[degenerate] = 0
+    total = int((divisions.astype(np.float64) ** 2).sum())
+    if total > MAX_PATCHES:
+        raise ValueError(
+            f"patch_size {patch_size:g} would make {total:,} patches (at most {MAX_PATCHES:,}); "
+            "choose a larger patch size"
+        )
+    return divisions
+
+
+def _split_triangles(corners: np.ndarray, divisions: np.ndarray) -> dict[str, np.ndarray]:
+    """Regular split of each triangle into divisions**2 sub-triangles (grouped by count)."""
+    parts, parents = [], []
+    for n in np.unique(divisions[divisions > 0]):
+        chosen = np.flatnonzero(divisions == n)
+        weights, cells = barycentric_grid(int(n))
+        points = np.einsum("gb,tbx->tgx", weights, corners[chosen])  # (k, G, 3)
+        parts.append(points[:, cells].reshape(-1, 3, 3))
+        parents.append(np.repeat(chosen, len(cells)))
+    order = np.argsort(np.concatenate(parents), kind="stable")
+    return {"corners": np.concatenate(parts)[order], "triangle": np.concatenate(parents)[order]}
+
+
+def _receiver_nodes(scene, corners, areas, normals, degenerate, crease_angle) -> dict[str, np.ndarray]:
+    triangle_count = len(corners)
+    weld = _weld(scene, corners)  # (T, 3) welded vertex id per corner
+    labels = _smoothing_groups(weld, scene.material, normals, degenerate, crease_angle)
+    valid = ~degenerate
+    valid_corners = np.flatnonzero(np.repeat(valid, 3))
+    group_ids, corner_group = np.unique(labels.ravel()[valid_corners], return_inverse=True)
+    group_count = len(group_ids)
+    triangle_of = valid_corners // 3
+    weight = areas[triangle_of]
+    totals = np.bincount(corner_group, weights=weight, minlength=group_count)
+
+    def mean(values: np.ndarray) -> np.ndarray:
+        return np.stack(
+            [np.bincount(corner_group, weights=weight * column, minlength=group_count) for column in values.T],
+            axis=1,
+        ) / totals[:, None]
+
+    node_normals = mean(normals[triangle_of])
+    node_normals /= np.linalg.norm(node_normals, axis=1, keepdims=True)
+    positions = np.zeros((group_count, 3))
+    positions[corner_group] = corners.reshape(-1, 3)[valid_corners]
+    towards_faces = mean(corners.mean(axis=1)[triangle_of]) - positions
+    towards_faces -= (towards_faces * node_normals).sum(axis=1, keepdims=True) * node_normals
+    corner_node = np.full(triangle_count * 3, -1, dtype=np.int64)
+    corner_node[valid_corners] = corner_group
+    _borrow_neighbour_nodes(corner_node, weld.ravel(), scene.material[np.arange(triangle_count * 3) // 3])
+    return {
+        "node_points": positions + NODE_INSET * towards_faces,
+        "node_normals": node_normals,
+        "node_reflectance": mean(scene.reflectance[triangle_of]),
+        "node_emission": mean(scene.emission[triangle_of]),
+        "corner_node": corner_node.reshape(triangle_count, 3),
+    }
+
+
+def _weld(scene: Scene, corners: np.ndarray) -> np.ndarray:
+    """(T, 3) id per corner; corners at the same position (within tolerance) share an id."""
+    points = corners.reshape(-1, 3)
+    step = max(scene.extent, np.finfo(float).tiny) * WELD_TOLERANCE
+    keys = np.round((points - points.min(axis=0)) / step).astype(np.int64)
+    return np.unique(keys, axis=0, return_inverse=True)[1].reshape(-1, 3)
+
+
+def _smoothing_groups(weld, material, normals, degenerate, crease_angle) -> np.ndarray:
+    """(T, 3) label per corner: corners joined across smooth, same-material shared edges."""
+    triangle_count = len(weld)
+    start = weld
+    end = weld[:, [1, 2, 0]]
+    edge_keys = np.stack([np.minimum(start, end), np.maximum(start, end)], axis=2).reshape(-1, 2)
+    corner_a = np.arange(triangle_count * 3)  # edge k of triangle t runs from corner k to corner k+1
+    corner_b = (corner_a // 3) * 3 + (corner_a % 3 + 1) % 3
+    keep = np.repeat(~degenerate, 3) & (edge_keys[:, 0] != edge_keys[:, 1])
+    edge_ids = np.flatnonzero(keep)
+    order = edge_ids[np.lexsort((edge_keys[edge_ids, 1], edge_keys[edge_ids, 0]))]
+    first, second = order[:-1], order[1:]
+    same_edge = (edge_keys[first] == edge_keys[second]).all(axis=1)
+    first, second = first[same_edge], second[same_edge]
+    tri_a, tri_b = first // 3, second // 3
+    smooth = (material[tri_a] == material[tri_b]) & (
+        (normals[tri_a] * normals[tri_b]).sum(axis=1) >= np.cos(crease_angle) - 1e-12
+    )
+    first, second = first[smooth], second[smooth]
+    # corner of triangle b at each endpoint of the shared edge: match by welded vertex
+    pairs = []
+    for corner_first in (corner_a[first], corner_b[first]):
+        vertex = weld.ravel()[corner_first]
+        base = (second // 3) * 3
+        match = np.full(len(second), -1)
+        for k in range(3):
+            match = np.where(weld.ravel()[base + k] == vertex, base + k, match)
+        pairs.append(np.stack([corner_first, match], axis=1))
+    pairs = np.concatenate(pairs) if pairs else np.zeros((0, 2), dtype=np.int64)
+    pairs = pairs[pairs[:, 1] >= 0]
+    return _connected_components(triangle_count * 3, pairs).reshape(-1, 3)
+
+
+def _connected_components(count: int, pairs: np.ndarray) -> np.ndarray:
+    """Label (count,) per item: the smallest item index of its component (min-label propagation
+    with pointer jumping)."""
+    labels = np.arange(count)
+    if len(pairs) == 0:
+        return labels
+    a, b = pairs.T
+    while True:
+        low = np.minimum(labels[a], labels[b])
+        previous = labels.copy()
+        np.minimum.at(labels, a, low)
+        np.minimum.at(labels, b, low)
+        labels = labels[labels]
+        if np.array_equal(labels, previous):
+            return labels
+
+
+def _borrow_neighbour_nodes(corner_node: np.ndarray, weld: np.ndarray, material: np.ndarray) -> None:
+    """Give each corner of a zero-area triangle the node of another corner at the same vertex,
+    preferring one of the same material (in place)."""
+    missing = np.flatnonzero(corner_node < 0)
+    if len(missing) == 0:
+        return
+    known = np.flatnonzero(corner_node >= 0)
+    for prefer_material in (True, False):
+        keys_known = weld[known] * (material.max() + 1) + material[known] if prefer_material else weld[known]
+        keys_missing = weld[missing] * (material.max() + 1) + material[missing] if prefer_material else weld[missing]
+        order = np.argsort(keys_known, kind="stable")
+        position = np.searchsorted(keys_known[order], keys_missing)
+        position = np.minimum(position, len(order) - 1)
+        found = keys_known[order][position] == keys_missing
+        corner_node[missing[found]] = corner_node[known[order][position[found]]]
+        missing = missing[~found]

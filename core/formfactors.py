@@ -1,0 +1,156 @@
+"""Form factors between receiving points and patches, by hemicube or by ray casting, computed in
+blocks sized to a ray budget so that memory stays bounded and progress is reported often."""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from . import hemicube, parallel, raycast
+from .discretize import Discretization, discretize
+from .scene import Scene
+from .visibility import Visibility
+
+METHODS = ("hemicube", "raycast")
+# Rays (and point-patch pairs) per block: about 0.05 s of work on one core.
+RAYS_PER_BLOCK = 1 << 18
+PAIRS_PER_BLOCK = 1 << 16
+
+Report = Callable[[float], None]
+
+
+def _quiet(_fraction: float) -> None:
+    pass
+
+
+class FormFactorEngine:
+    """Rows F(point -> every patch) and shooting columns F(every patch -> one patch) of a
+    discretised scene. A patch receives at its centroid, facing its normal."""
+
+    def __init__(
+        self,
+        mesh: Discretization,
+        method: str = "raycast",
+        hemicube_resolution: int = 64,
+        rays_per_form_factor: int = 16,
+        seed: int = 0,
+    ) -> None:
+        if method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+        self.mesh = mesh
+        self.method = method
+        self.resolution = hemicube_resolution
+        if method == "hemicube":
+            hemicube.pixels(hemicube_resolution)  # validates the resolution
+        self.visibility = Visibility(mesh.patch_corners[: mesh.front_patch_count])
+        self.raycaster = raycast.RayCaster(
+            mesh.patch_corners, mesh.patch_normals, mesh.patch_areas, self.visibility, rays_per_form_factor, seed
+        )
+
+    @property
+    def rays_cast(self) -> int:
+        return self.visibility.rays_cast
+
+    def rows(self, points: np.ndarray, normals: np.ndarray, report: Report = _quiet) -> np.ndarray:
+        """(m, P) form factors from points (m, 3) facing normals (m, 3) to every patch."""
+        sources = np.arange(self.mesh.patch_count)
+        return np.concatenate(list(self._blocks(points, normals, sources, lambda block: block, report)))
+
+    def gather(self, points: np.ndarray, normals: np.ndarray, radiosity: np.ndarray,
+               report: Report = _quiet) -> np.ndarray:
+        """(m, C) sum_q F(point -> q) B_q at each point, without storing F."""
+        sources = np.flatnonzero(radiosity.any(axis=1))
+        parts = self._blocks(points, normals, sources, lambda block: block @ radiosity[sources], report)
+        return np.concatenate(list(parts)).reshape(len(points), radiosity.shape[1])
+
+    def _blocks(self, points, normals, sources, finish, report):
+        """finish(F block) for consecutive blocks of points, computed in parallel, in order."""
+        size = self._rows_per_block(len(sources))
+        starts = range(0, len(points), size)
+
+        def one(start):
+            stop = min(start + size, len(points))
+            return finish(self._block(points[start:stop], normals[start:stop], sources))
+
+        for done, part in enumerate(parallel.map_ordered(one, starts), 1):
+            report(min(1.0, done * size / max(1, len(points))))
+            yield part
+
+    def patch_rows(self, patches: np.ndarray, report: Report = _quiet) -> np.ndarray:
+        """(m, P) F[p, q] for the receiving patches ``patches``."""
+        mesh = self.mesh
+        return self.rows(mesh.patch_centroids[patches], mesh.patch_normals[patches], report)
+
+    def shooting_columns(self, sources: np.ndarray) -> np.ndarray:
+        """F[r, q] for every receiver r and each patch q in ``sources`` (k,): what q shoots.
+
+        Ray casting evaluates the columns directly at every patch centroid and every node
+        ((P + N, k) values); the hemicube sees from each source and uses reciprocity,
+        F[p, q] = A_q F[q, p] / A_p (Cohen et al. 1988), for the patches only ((P, k) values).
+        """
+        mesh = self.mesh
+        if self.method == "hemicube":
+            rows = self.rows(mesh.patch_centroids[sources], mesh.patch_normals[sources])
+            return np.divide(rows.T * mesh.patch_areas[sources], mesh.patch_areas[:, None],
+                             out=np.zeros((mesh.patch_count, len(sources))), where=mesh.patch_areas[:, None] > 0)
+        points = np.concatenate([mesh.patch_centroids, mesh.node_points])
+        normals = np.concatenate([mesh.patch_normals, mesh.node_normals])
+        pieces = max(parallel.THREADS, -(-len(points) * len(sources) // PAIRS_PER_BLOCK))
+        chunks = np.array_split(np.arange(len(points)), min(pieces, len(points)))
+
+        def one(receivers):
+            pairs = self.raycaster.form_factors(
+                points, normals, np.repeat(receivers, len(sources)), np.tile(sources, len(receivers))
+            )
+            return pairs.reshape(len(receivers), len(sources))
+
+        return np.concatenate(list(parallel.map_ordered(one, chunks)))
+
+    def _rows_per_block(self, source_count: int) -> int:
+        if self.method == "hemicube":
+            return max(1, RAYS_PER_BLOCK // len(hemicube.pixels(self.resolution)[1]))
+        per_row = max(1, source_count)
+        return max(1, min(PAIRS_PER_BLOCK // per_row, RAYS_PER_BLOCK // (per_row * self.raycaster.rays)))
+
+    def _block(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray) -> np.ndarray:
+        mesh = self.mesh
+        if self.method == "hemicube":
+            full = hemicube.form_factor_rows(points, normals, self.resolution, self.visibility,
+                                             mesh.patch_normals, mesh.back_of_front, mesh.patch_count)
+            return full[:, sources]
+        receivers = np.repeat(np.arange(len(points)), len(sources))
+        values = self.raycaster.form_factors(points, normals, receivers, np.tile(sources, len(points)))
+        return values.reshape(len(points), len(sources))
+
+def form_factor_matrix(
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    method: str = "hemicube",
+    *,
+    patch_size: float | None = None,
+    hemicube_resolution: int = 64,
+    rays_per_form_factor: int = 16,
+    seed: int = 0,
+) -> np.ndarray:
+    """(T, T) float64 form factors F[i, j] from input triangle i to input triangle j (front
+    sides), occlusion by the other triangles included.
+
+    Each triangle is one patch receiving at its centroid; with ``patch_size`` it is split into
+    patches no longer than that, and F[i, j] = sum_{p in i} A_p/A_i sum_{q in j} F[p, q]
+    (the receiver's area average, better as patches shrink).
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    triangles = np.asarray(triangles)
+    count = len(triangles)
+    scene = Scene(vertices, triangles, np.zeros((count, 3)), np.zeros((count, 3)))
+    mesh = discretize(scene, patch_size)
+    engine = FormFactorEngine(mesh, method, hemicube_resolution, rays_per_form_factor, seed)
+    patch_matrix = engine.patch_rows(np.arange(mesh.patch_count))
+    owner = mesh.patch_triangle
+    by_source = np.zeros((mesh.patch_count, count))
+    np.add.at(by_source.T, owner, patch_matrix.T)
+    weights = mesh.patch_areas / np.bincount(owner, weights=mesh.patch_areas, minlength=count)[owner]
+    result = np.zeros((count, count))
+    np.add.at(result, owner, by_source * weights[:, None])
+    return result

@@ -1,0 +1,78 @@
+"""Small geometric helpers on arrays of triangles; no state."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def triangle_corners(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(T, 3, 3) float64 corner positions of each triangle."""
+    return vertices[triangles]
+
+
+def area_vectors(corners: np.ndarray) -> np.ndarray:
+    """(T, 3) half the cross product of two edges: area times unit normal (right-hand rule)."""
+    return 0.5 * np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+
+
+def areas_and_normals(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Areas (T,) and unit normals (T, 3); a zero-area triangle gets a zero normal."""
+    vectors = area_vectors(corners)
+    areas = np.linalg.norm(vectors, axis=1)
+    normals = np.divide(vectors, areas[:, None], out=np.zeros_like(vectors), where=areas[:, None] > 0)
+    return areas, normals
+
+
+def longest_edges(corners: np.ndarray) -> np.ndarray:
+    """(T,) length of each triangle's longest edge."""
+    edges = corners[:, [1, 2, 0]] - corners
+    return np.linalg.norm(edges, axis=2).max(axis=1)
+
+
+def tangent_frames(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit tangents (n, 3) each, orthogonal to the unit ``normals`` and to each other.
+
+    Branchless construction of Duff et al., "Building an Orthonormal Basis, Revisited" (JCGT 2017).
+    """
+    x, y, z = normals.T
+    sign = np.where(z >= 0, 1.0, -1.0)
+    a = -1.0 / (sign + z)
+    b = x * y * a
+    tangent = np.stack([1 + sign * x * x * a, sign * b, -sign * x], axis=1)
+    bitangent = np.stack([b, sign + y * y * a, -y], axis=1)
+    return tangent, bitangent
+
+
+def barycentric_grid(divisions: int) -> tuple[np.ndarray, np.ndarray]:
+    """Regular split of a triangle into ``divisions**2`` congruent sub-triangles.
+
+    Returns grid points as barycentric weights (G, 3) and sub-triangles (divisions**2, 3) as
+    indices into the grid, with the parent's orientation. Grid point (i, j) sits at
+    a + i/n (b - a) + j/n (c - a).
+    """
+    n = divisions
+    i, j = np.array([(i, j) for j in range(n + 1) for i in range(n + 1 - j)]).T
+    index = {(a, b): k for k, (a, b) in enumerate(zip(i.tolist(), j.tolist()))}
+    weights = np.stack([n - i - j, i, j], axis=1) / n
+    cells = []
+    for jj in range(n):
+        for ii in range(n - jj):
+            cells.append((index[ii, jj], index[ii + 1, jj], index[ii, jj + 1]))
+            if ii + jj + 2 <= n:
+                cells.append((index[ii + 1, jj], index[ii + 1, jj + 1], index[ii, jj + 1]))
+    return weights, np.array(cells, dtype=np.int64)
+
+
+def stratified_triangle_samples(count: int, rng: np.random.Generator, size: int) -> np.ndarray:
+    """(size, count, 3) barycentric weights: one uniform random point in each of ``count``
+    congruent strata of the triangle (``count`` must be a perfect square).
+
+    Uniform point in a triangle: (1 - sqrt(u), sqrt(u) (1 - v), sqrt(u) v) (Osada et al. 2002).
+    """
+    divisions = int(round(np.sqrt(count)))
+    grid, cells = barycentric_grid(divisions)
+    u = np.sqrt(rng.random((size, count)))
+    v = rng.random((size, count))
+    local = np.stack([1 - u, u * (1 - v), u * v], axis=2)  # weights within each stratum
+    stratum = grid[cells]  # (count, 3 corners, 3 barycentric)
+    return np.einsum("sck,ckb->scb", local, stratum)

@@ -1,0 +1,26 @@
+"""One thread pool for the bake's heavy blocks: NumPy and Embree both release the GIL on large
+arrays, so whole blocks (form factors, then their rays) run side by side on every core."""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from typing import Callable, Iterable, Iterator, TypeVar
+
+Item = TypeVar("Item")
+Result = TypeVar("Result")
+
+THREADS = max(1, min(os.cpu_count() or 1, 16))
+_pool = ThreadPoolExecutor(max_workers=THREADS, thread_name_prefix="radiosity")
+
+
+def map_ordered(function: Callable[[Item], Result], items: Iterable[Item]) -> Iterator[Result]:
+    """Results of ``function`` over ``items`` in order, computed THREADS at a time ahead of the
+    consumer (so a slow consumer, or one that stops early, does not queue unbounded work)."""
+    pending = []
+    for item in items:
+        pending.append(_pool.submit(function, item))
+        if len(pending) > THREADS:
+            yield pending.pop(0).result()
+    for future in pending:
+        yield future.result()

@@ -1,0 +1,125 @@
+"""The scene model: triangles with diffuse reflectance and emission, validated on construction."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+def _first_bad(mask: np.ndarray) -> int:
+    """Index of the first row where ``mask`` is True (mask reduced over trailing axes)."""
+    rows = mask.reshape(mask.shape[0], -1).any(axis=1)
+    return int(np.flatnonzero(rows)[0])
+
+
+def _as_float_array(name: str, value, shape_tail: tuple[int, ...]) -> np.ndarray:
+    array = np.asarray(value)
+    if array.dtype.kind not in "fiu":
+        raise ValueError(f"{name} must be a numeric array, got dtype {array.dtype}")
+    array = np.ascontiguousarray(array, dtype=np.float64)
+    if array.ndim != 1 + len(shape_tail) or array.shape[1:] != shape_tail:
+        expected = "(n, " + ", ".join(map(str, shape_tail)) + ")" if shape_tail else "(n,)"
+        raise ValueError(f"{name} must have shape {expected}, got {array.shape}")
+    if not np.isfinite(array).all():
+        bad = _first_bad(~np.isfinite(array))
+        raise ValueError(f"{name}[{bad}] is not finite: {array[bad]}")
+    return array
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """Triangles that reflect diffusely and may emit, per colour channel (linear RGB).
+
+    vertices : (V, 3) float, world space.
+    triangles : (T, 3) int, indices into ``vertices``; the front side follows the right-hand
+        rule (counter-clockwise seen from the front).
+    reflectance : (T, 3) float in [0, 1), diffuse albedo rho per channel.
+    emission : (T, 3) float >= 0, emitted radiosity E (Blender: emission colour x strength).
+    material : (T,) int, optional; triangles of different materials never share a receiver
+        node, so colour may jump at a material border. Default: one material per distinct
+        (reflectance, emission).
+    two_sided : (T,) bool, optional; a two-sided triangle reflects and emits on both sides
+        (as Cycles' Diffuse BSDF and Emission do); the back side is its own surface.
+        Default: all one-sided.
+    """
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+    reflectance: np.ndarray
+    emission: np.ndarray
+    material: np.ndarray | None = None
+    two_sided: np.ndarray | None = field(default=None)
+
+    def __post_init__(self) -> None:
+        vertices = _as_float_array("vertices", self.vertices, (3,))
+        triangles = np.asarray(self.triangles)
+        if triangles.dtype.kind not in "iu":
+            raise ValueError(f"triangles must be an integer array, got dtype {triangles.dtype}")
+        if triangles.ndim != 2 or triangles.shape[1] != 3:
+            raise ValueError(f"triangles must have shape (T, 3), got {triangles.shape}")
+        if len(triangles) == 0:
+            raise ValueError("the scene has no triangles")
+        triangles = np.ascontiguousarray(triangles, dtype=np.int64)
+        out_of_range = (triangles < 0) | (triangles >= len(vertices))
+        if out_of_range.any():
+            bad = _first_bad(out_of_range)
+            raise ValueError(
+                f"triangles[{bad}] = {triangles[bad].tolist()} indexes outside vertices "
+                f"(there are {len(vertices)})"
+            )
+        count = len(triangles)
+        reflectance = _per_triangle("reflectance", self.reflectance, count)
+        if (reflectance < 0).any():
+            bad = _first_bad(reflectance < 0)
+            raise ValueError(f"reflectance[{bad}] = {reflectance[bad].tolist()} is negative")
+        if (reflectance >= 1).any():
+            bad = _first_bad(reflectance >= 1)
+            raise ValueError(
+                f"reflectance[{bad}] = {reflectance[bad].tolist()} is >= 1: a surface must absorb "
+                "some light, or a closed scene has no finite solution"
+            )
+        emission = _per_triangle("emission", self.emission, count)
+        if (emission < 0).any():
+            bad = _first_bad(emission < 0)
+            raise ValueError(f"emission[{bad}] = {emission[bad].tolist()} is negative")
+        material = self.material
+        if material is None:
+            material = np.unique(np.hstack([reflectance, emission]), axis=0, return_inverse=True)[1]
+        material = np.asarray(material)
+        if material.dtype.kind not in "iu" or material.shape != (count,):
+            raise ValueError(f"material must be an integer array of shape ({count},)")
+        two_sided = np.zeros(count, bool) if self.two_sided is None else np.asarray(self.two_sided)
+        if two_sided.dtype != bool or two_sided.shape != (count,):
+            raise ValueError(f"two_sided must be a bool array of shape ({count},)")
+        for name, value in (
+            ("vertices", vertices),
+            ("triangles", triangles),
+            ("reflectance", reflectance),
+            ("emission", emission),
+            ("material", np.ascontiguousarray(material.ravel(), dtype=np.int64)),
+            ("two_sided", two_sided),
+        ):
+            value.setflags(write=False)
+            object.__setattr__(self, name, value)
+
+    @property
+    def extent(self) -> float:
+        """Length of the bounding-box diagonal of the triangles' vertices."""
+        used = self.vertices[self.triangles.ravel()]
+        return float(np.linalg.norm(used.max(axis=0) - used.min(axis=0)))
+
+    @property
+    def is_grey(self) -> bool:
+        """True when every reflectance and emission has equal R, G and B."""
+        return bool(
+            (self.reflectance == self.reflectance[:, :1]).all()
+            and (self.emission == self.emission[:, :1]).all()
+        )
+
+
+def _per_triangle(name: str, value, count: int) -> np.ndarray:
+    array = _as_float_array(name, value, (3,))
+    if len(array) != count:
+        raise ValueError(f"{name} must have one row per triangle ({count}), got {len(array)}")
+    return array

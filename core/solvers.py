@@ -1,0 +1,186 @@
+"""Solvers for the radiosity system B = E + rho * (F @ B), all channels at once, float64.
+
+Each returns the radiosity (P, C) and a dict of what it measured. ``report(fraction, detail)``
+is called often; it raises BakeCancelled to stop.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Callable
+
+import numpy as np
+
+SOLVERS = ("progressive", "jacobi", "gauss_seidel")
+
+Report = Callable[[float, str], None]
+
+
+def _quiet(_fraction: float, _detail: str) -> None:
+    pass
+
+
+def _effort(fraction_left: float, tolerance: float) -> float:
+    """Progress 0..1 as the (log of the) remaining fraction falls from 1 to the tolerance."""
+    if fraction_left <= tolerance:
+        return 1.0
+    return float(np.clip(np.log(fraction_left) / np.log(tolerance), 0.0, 1.0))
+
+
+def progressive(
+    columns: Callable[[np.ndarray], np.ndarray],
+    areas: np.ndarray,
+    reflectance: np.ndarray,
+    emission: np.ndarray,
+    passive_reflectance: np.ndarray | None = None,
+    passive_emission: np.ndarray | None = None,
+    tolerance: float = 1e-3,
+    ambient: bool = True,
+    max_shots: int | None = None,
+    cache_bytes: int = 256 << 20,
+    batch: int = 16,
+    report: Report = _quiet,
+) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Progressive refinement (Cohen, Chen, Wallace and Greenberg 1988): repeatedly shoot the
+    patch q with the most unshot power A_q sum_c U_q,c to every receiver r:
+
+        dB_r = rho_r F[r, q] U_q;   B_r += dB_r;   U_r += dB_r (patches only);   U_q = 0.
+
+    Receivers are the P patches, then N passive points that receive but never shoot (the
+    vertices of Wallace et al. 1989), given by ``passive_reflectance`` and ``passive_emission``
+    (N, C). ``columns(q)`` returns F[:, q] (P + N, k) for the k patches q. When the shooter's
+    column is not at hand, the columns of the next brightest shooters are fetched with it
+    (``batch`` at most), since they are about to shoot. Columns are kept while they fit
+    ``cache_bytes``, so reshooting is cheap in small scenes; memory otherwise stays O(P + N).
+
+    Stops when the energy still unshot, with all its future bounces (times 1 / (1 - rho_mean)),
+    is at most ``tolerance`` times the energy already distributed. With ``ambient`` the result
+    adds that remainder as the uniform ambient term of Cohen et al.,
+    rho_r (sum A U / sum A) / (1 - rho_mean), which is exact when the unshot light is uniform.
+    Returns B of the patches (P, C), B of the passive points (N, C) and the statistics.
+    """
+    patch_count, channels = emission.shape
+    if passive_emission is None:
+        passive_reflectance = passive_emission = np.zeros((0, channels))
+    all_reflectance = np.concatenate([reflectance, passive_reflectance])
+    radiosity = np.concatenate([emission, passive_emission])
+    unshot = emission.copy()
+    total_area = areas.sum()
+    mean_reflectance = (areas @ reflectance) / total_area
+    bounce_gain = 1.0 / (1.0 - mean_reflectance)  # (C,)
+    cache: dict[int, np.ndarray] = {}
+    cache_limit = max(batch, cache_bytes // (8 * len(radiosity)))
+    shots = 0
+    limit = max_shots if max_shots is not None else 1000 * patch_count + 10_000
+    undistributed = 1.0
+    while shots < limit:
+        remaining = float(areas @ unshot @ bounce_gain)
+        distributed = float(areas @ radiosity[:patch_count].sum(axis=1))
+        undistributed = remaining / distributed if distributed > 0 else 0.0
+        if undistributed <= tolerance:
+            break
+        power = areas * unshot.sum(axis=1)
+        source = int(np.argmax(power))
+        shooting = unshot[source].copy()
+        if source not in cache:
+            brightest = np.argsort(-power)[: batch + len(cache)]
+            wanted = [source] + [int(q) for q in brightest if q != source and q not in cache][: batch - 1]
+            for q, factors in zip(wanted, columns(np.array(wanted)).T):
+                cache[q] = factors
+        factors = cache[source]
+        while len(cache) > cache_limit:  # forget the oldest columns first, never the prefetched
+            del cache[next(iter(cache))]
+        received = all_reflectance * (factors[:, None] * shooting[None, :])
+        radiosity += received
+        unshot += received[:patch_count]
+        unshot[source] = 0.0
+        shots += 1
+        report(_effort(undistributed, tolerance), f"{shots} shots, {100 * undistributed:.2g}% unshot")
+    ambient_term = (areas @ unshot) / total_area * bounce_gain
+    if ambient:
+        radiosity += all_reflectance * ambient_term
+    return radiosity[:patch_count], radiosity[patch_count:], {
+        "shots": shots,
+        "unshot_fraction": undistributed,
+        "ambient": (ambient_term if ambient else 0 * ambient_term).tolist(),
+        "cached_columns": len(cache),
+    }
+
+
+def _bound_factor(matrix: np.ndarray, reflectance: np.ndarray) -> float:
+    """max_p rho_p sum_q |F_pq|: the contraction factor of the iteration (< 1 is required)."""
+    row_sums = np.abs(matrix).sum(axis=1)
+    return float((reflectance.max(axis=1) * row_sums).max())
+
+
+def _check_contraction(factor: float) -> None:
+    if factor >= 1.0:
+        raise ValueError(
+            f"the system does not converge: max rho * row sum of F = {factor:.6g} >= 1 "
+            "(a form factor row sums to more than 1 / rho)"
+        )
+
+
+def jacobi(
+    matrix: np.ndarray,
+    reflectance: np.ndarray,
+    emission: np.ndarray,
+    tolerance: float = 1e-3,
+    max_iterations: int = 1_000_000,
+    report: Report = _quiet,
+) -> tuple[np.ndarray, dict]:
+    """Jacobi iteration B <- E + rho * (F @ B). With q = max rho_p sum_q F_pq < 1 the error is
+    at most |r|_inf / (1 - q) for the residual r = E + rho F B - B; stops when that bound is
+    at most ``tolerance`` * |B|_inf."""
+    factor = _bound_factor(matrix, reflectance)
+    _check_contraction(factor)
+    radiosity = emission.copy()
+    iterations, error_bound = 0, np.inf
+    while iterations < max_iterations:
+        updated = emission + reflectance * (matrix @ radiosity)
+        residual = np.abs(updated - radiosity).max()
+        radiosity = updated
+        iterations += 1
+        scale = np.abs(radiosity).max()
+        error_bound = residual / (1 - factor) / scale if scale > 0 else 0.0
+        if error_bound <= tolerance:
+            break
+        report(_effort(error_bound, tolerance), f"iteration {iterations}, error bound {error_bound:.2g}")
+    return radiosity, _iteration_stats(matrix, reflectance, emission, radiosity, iterations, error_bound)
+
+
+def gauss_seidel(
+    matrix: np.ndarray,
+    reflectance: np.ndarray,
+    emission: np.ndarray,
+    tolerance: float = 1e-3,
+    max_iterations: int = 1_000_000,
+    report: Report = _quiet,
+) -> tuple[np.ndarray, dict]:
+    """Gauss-Seidel: each sweep updates B_p = E_p + rho_p sum_q F_pq B_q in place, row by row,
+    using the newest values. Stops on the same error bound as ``jacobi`` (computed from the
+    residual after each sweep)."""
+    factor = _bound_factor(matrix, reflectance)
+    _check_contraction(factor)
+    radiosity = emission.copy()
+    iterations, error_bound = 0, np.inf
+    last_report = time.perf_counter()
+    while iterations < max_iterations:
+        for row in range(len(matrix)):
+            radiosity[row] = emission[row] + reflectance[row] * (matrix[row] @ radiosity)
+            if time.perf_counter() - last_report > 0.05:
+                last_report = time.perf_counter()
+                report(_effort(error_bound, tolerance), f"sweep {iterations + 1}, row {row}")
+        iterations += 1
+        residual = np.abs(emission + reflectance * (matrix @ radiosity) - radiosity).max()
+        scale = np.abs(radiosity).max()
+        error_bound = residual / (1 - factor) / scale if scale > 0 else 0.0
+        if error_bound <= tolerance:
+            break
+        report(_effort(error_bound, tolerance), f"sweep {iterations}, error bound {error_bound:.2g}")
+    return radiosity, _iteration_stats(matrix, reflectance, emission, radiosity, iterations, error_bound)
+
+
+def _iteration_stats(matrix, reflectance, emission, radiosity, iterations, error_bound) -> dict:
+    residual = np.abs(emission + reflectance * (matrix @ radiosity) - radiosity).max()
+    return {"iterations": iterations, "residual": float(residual), "error_bound": float(error_bound)}

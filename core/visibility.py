@@ -1,0 +1,71 @@
+"""Every ray of the project goes through here: segment occlusion and nearest hits over Embree.
+
+The triangles are re-centred and scaled to unit size before they become float32 for Embree, and
+ray offsets are a fixed fraction of that unit size, so results do not depend on the scene's
+scale. embreex releases the GIL while it traces, so callers run batches from several threads.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+from embreex import rtcore_scene
+from embreex.mesh_construction import TriangleMesh
+
+# Rays start and stop this fraction of the scene's extent away from their end points, so a ray
+# does not hit the surface it leaves or the one it aims at (float32 holds about 6e-8 of it).
+RAY_EPSILON = 1e-5
+
+
+class Visibility:
+    """Ray queries against a fixed set of triangles.
+
+    corners : (P, 3, 3) float, the occluding triangles (index p is what ``nearest`` returns).
+    """
+
+    def __init__(self, corners: np.ndarray) -> None:
+        points = corners.reshape(-1, 3)
+        low, high = points.min(axis=0), points.max(axis=0)
+        self.center = (low + high) / 2
+        self.scale = 1.0 / max(float(np.linalg.norm(high - low)), np.finfo(float).tiny)
+        self._scene = rtcore_scene.EmbreeScene()
+        TriangleMesh(self._scene, self.to_unit(corners.reshape(-1, 3)).reshape(-1, 3, 3))
+        self.rays_cast = 0
+        self._count_lock = threading.Lock()
+
+    def to_unit(self, points: np.ndarray) -> np.ndarray:
+        """(n, 3) float32: world-space points in the unit space rays are traced in."""
+        return np.ascontiguousarray((points - self.center) * self.scale, dtype=np.float32)
+
+    @staticmethod
+    def to_unit_directions(normals: np.ndarray) -> np.ndarray:
+        """(n, 3) float32: unit vectors in unit space (which only shifts and scales)."""
+        return np.ascontiguousarray(normals, dtype=np.float32)
+
+    def occluded_unit(self, starts: np.ndarray, directions: np.ndarray, reach: np.ndarray) -> np.ndarray:
+        """(n,) bool: whether a triangle lies on each ray start + t direction, 0 <= t < reach,
+        from starts (n, 3) along directions (n, 3, any length), in unit space (see
+        ``to_unit``); a ray with reach <= 0 is not blocked."""
+        blocked = np.zeros(len(starts), dtype=bool)
+        test = np.flatnonzero(reach > 0)
+        if len(test) == len(starts):
+            return self._run(starts, directions, reach, "OCCLUDED") != -1
+        if len(test):
+            blocked[test] = self._run(starts[test], directions[test], reach[test], "OCCLUDED") != -1
+        return blocked
+
+    def nearest(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
+        """(n,) int: index of the first triangle along each ray (unit ``directions``), -1 for a
+        miss; hits within RAY_EPSILON of the origin are ignored."""
+        start = (origins - self.center) * self.scale + RAY_EPSILON * directions
+        return self._run(start, directions, None, "INTERSECT")
+
+    def _run(self, origins, directions, reach, query) -> np.ndarray:
+        origins = np.ascontiguousarray(origins, dtype=np.float32)
+        directions = np.ascontiguousarray(directions, dtype=np.float32)
+        if reach is not None:
+            reach = np.ascontiguousarray(reach, dtype=np.float32)
+        with self._count_lock:
+            self.rays_cast += len(origins)
+        return self._scene.run(origins, directions, dists=reach, query=query)
