@@ -29,7 +29,8 @@ class BakeSettings:
     tolerance : stop when the estimated fraction of light not yet distributed (progressive) or
         the bound on the relative error (Jacobi, Gauss-Seidel) is below this.
     ambient : progressive only: add the ambient estimate of the light not yet shot.
-    max_shots, max_iterations : hard limits for the solvers (None: generous defaults).
+    max_shots : progressive refinement stops after this many shots (None: when converged).
+    max_iterations : Jacobi and Gauss-Seidel stop after this many sweeps.
     memory_budget : bytes the explicit matrix of Jacobi / Gauss-Seidel may take.
     column_cache : bytes of form-factor columns progressive refinement may keep for reshooting.
     seed : fixes the ray-casting sample positions.

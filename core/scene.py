@@ -17,7 +17,7 @@ def _as_float_array(name: str, value, shape_tail: tuple[int, ...]) -> np.ndarray
     array = np.asarray(value)
     if array.dtype.kind not in "fiu":
         raise ValueError(f"{name} must be a numeric array, got dtype {array.dtype}")
-    array = np.ascontiguousarray(array, dtype=np.float64)
+    array = np.array(array, dtype=np.float64, order="C")  # a copy: the scene freezes its arrays
     if array.ndim != 1 + len(shape_tail) or array.shape[1:] != shape_tail:
         expected = "(n, " + ", ".join(map(str, shape_tail)) + ")" if shape_tail else "(n,)"
         raise ValueError(f"{name} must have shape {expected}, got {array.shape}")
@@ -60,7 +60,7 @@ class Scene:
             raise ValueError(f"triangles must have shape (T, 3), got {triangles.shape}")
         if len(triangles) == 0:
             raise ValueError("the scene has no triangles")
-        triangles = np.ascontiguousarray(triangles, dtype=np.int64)
+        triangles = np.array(triangles, dtype=np.int64, order="C")
         out_of_range = (triangles < 0) | (triangles >= len(vertices))
         if out_of_range.any():
             bad = _first_bad(out_of_range)
@@ -89,7 +89,7 @@ class Scene:
         material = np.asarray(material)
         if material.dtype.kind not in "iu" or material.shape != (count,):
             raise ValueError(f"material must be an integer array of shape ({count},)")
-        two_sided = np.zeros(count, bool) if self.two_sided is None else np.asarray(self.two_sided)
+        two_sided = np.zeros(count, bool) if self.two_sided is None else np.array(self.two_sided)
         if two_sided.dtype != bool or two_sided.shape != (count,):
             raise ValueError(f"two_sided must be a bool array of shape ({count},)")
         for name, value in (
@@ -97,7 +97,7 @@ class Scene:
             ("triangles", triangles),
             ("reflectance", reflectance),
             ("emission", emission),
-            ("material", np.ascontiguousarray(material.ravel(), dtype=np.int64)),
+            ("material", np.array(material, dtype=np.int64)),
             ("two_sided", two_sided),
         ):
             value.setflags(write=False)

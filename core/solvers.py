@@ -56,7 +56,8 @@ def progressive(
     Stops when the energy still unshot, with all its future bounces (times 1 / (1 - rho_mean)),
     is at most ``tolerance`` times the energy already distributed. With ``ambient`` the result
     adds that remainder as the uniform ambient term of Cohen et al.,
-    rho_r (sum A U / sum A) / (1 - rho_mean), which is exact when the unshot light is uniform.
+    rho_r (sum A U / sum A) / (1 - rho_mean): it always restores the total energy in a closed
+    scene of uniform reflectance, and every value when the unshot light is uniform.
     Returns B of the patches (P, C), B of the passive points (N, C) and the statistics.
     """
     patch_count, channels = emission.shape
@@ -71,7 +72,7 @@ def progressive(
     cache: dict[int, np.ndarray] = {}
     cache_limit = max(batch, cache_bytes // (8 * len(radiosity)))
     shots = 0
-    limit = max_shots if max_shots is not None else 1000 * patch_count + 10_000
+    limit = max_shots if max_shots is not None else np.inf  # it converges for rho < 1: the caller may cancel
     undistributed = 1.0
     while shots < limit:
         remaining = float(areas @ unshot @ bounce_gain)
@@ -101,6 +102,7 @@ def progressive(
         radiosity += all_reflectance * ambient_term
     return radiosity[:patch_count], radiosity[patch_count:], {
         "shots": shots,
+        "converged": undistributed <= tolerance,
         "unshot_fraction": undistributed,
         "ambient": (ambient_term if ambient else 0 * ambient_term).tolist(),
         "cached_columns": len(cache),
@@ -146,7 +148,7 @@ def jacobi(
         if error_bound <= tolerance:
             break
         report(_effort(error_bound, tolerance), f"iteration {iterations}, error bound {error_bound:.2g}")
-    return radiosity, _iteration_stats(matrix, reflectance, emission, radiosity, iterations, error_bound)
+    return radiosity, _iteration_stats(matrix, reflectance, emission, radiosity, iterations, error_bound, tolerance)
 
 
 def gauss_seidel(
@@ -178,9 +180,10 @@ def gauss_seidel(
         if error_bound <= tolerance:
             break
         report(_effort(error_bound, tolerance), f"sweep {iterations}, error bound {error_bound:.2g}")
-    return radiosity, _iteration_stats(matrix, reflectance, emission, radiosity, iterations, error_bound)
+    return radiosity, _iteration_stats(matrix, reflectance, emission, radiosity, iterations, error_bound, tolerance)
 
 
-def _iteration_stats(matrix, reflectance, emission, radiosity, iterations, error_bound) -> dict:
+def _iteration_stats(matrix, reflectance, emission, radiosity, iterations, error_bound, tolerance) -> dict:
     residual = np.abs(emission + reflectance * (matrix @ radiosity) - radiosity).max()
-    return {"iterations": iterations, "residual": float(residual), "error_bound": float(error_bound)}
+    return {"iterations": iterations, "converged": bool(error_bound <= tolerance), "residual": float(residual),
+            "error_bound": float(error_bound)}

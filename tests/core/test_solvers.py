@@ -1,0 +1,87 @@
+"""The three solvers against numpy.linalg.solve on the same matrix, and against each other
+through bake()."""
+
+import numpy as np
+import pytest
+
+from core import bake, form_factor_matrix
+from core import solvers
+from tests.core.scenes import lit_room
+
+
+@pytest.fixture(scope="module")
+def system():
+    """A coloured room's form factors (with occlusion), its reflectance and emission."""
+    scene = lit_room()
+    matrix = form_factor_matrix(scene.vertices, scene.triangles, "raycast", patch_size=0.2)
+    return matrix, scene.reflectance, scene.emission
+
+
+def exact(matrix, reflectance, emission):
+    """B = (I - diag(rho) F)^-1 E, per channel."""
+    return np.stack([
+        np.linalg.solve(np.eye(len(matrix)) - reflectance[:, [c]] * matrix, emission[:, c]) for c in range(3)
+    ], axis=1)
+
+
+@pytest.mark.parametrize("solve", [solvers.jacobi, solvers.gauss_seidel])
+def test_iterative_solvers_agree_with_a_direct_solve(system, solve):
+    """Their stopping rule bounds the error by tolerance * max |B| (row sums of rho F < 1)."""
+    matrix, reflectance, emission = system
+    truth = exact(*system)
+    radiosity, stats = solve(matrix, reflectance, emission, tolerance=1e-8)
+    assert np.abs(radiosity - truth).max() <= 1e-8 * np.abs(truth).max()
+    assert stats["error_bound"] <= 1e-8 and stats["residual"] <= 1e-8 * np.abs(truth).max()
+
+
+def test_gauss_seidel_needs_fewer_sweeps_than_jacobi(system):
+    _, jacobi_stats = solvers.jacobi(*system, tolerance=1e-8)
+    _, seidel_stats = solvers.gauss_seidel(*system, tolerance=1e-8)
+    assert seidel_stats["iterations"] < jacobi_stats["iterations"]
+
+
+@pytest.mark.parametrize("ambient", [False, True])
+def test_progressive_refinement_agrees_with_a_direct_solve(system, ambient):
+    """Shooting until the undistributed light is below 1e-9 of the distributed: the remaining
+    error is of that order times the mean reflectance's gain, with or without the ambient term."""
+    matrix, reflectance, emission = system
+    truth = exact(*system)
+    areas = np.ones(len(matrix))  # the solver only uses areas to rank shooters and weigh energy
+    radiosity, _, stats = solvers.progressive(lambda sources: matrix[:, sources], areas, reflectance, emission,
+                                              tolerance=1e-9, ambient=ambient)
+    assert stats["unshot_fraction"] <= 1e-9
+    np.testing.assert_allclose(radiosity, truth, rtol=1e-7, atol=1e-7 * np.abs(truth).max())
+
+
+def test_progressive_refinement_shoots_passive_receivers_too(system):
+    """Passive receivers (the vertices) get E + rho F B for the final B, like a gather would."""
+    matrix, reflectance, emission = system
+    truth = exact(*system)
+    probes = matrix[:3] * 0.5  # any rows of form factors will do
+    probe_reflectance, probe_emission = np.full((3, 3), 0.4), np.full((3, 3), 0.1)
+    columns = np.concatenate([matrix, probes])
+    _, passive, _ = solvers.progressive(lambda sources: columns[:, sources], np.ones(len(matrix)), reflectance,
+                                        emission, probe_reflectance, probe_emission, tolerance=1e-10, ambient=False)
+    np.testing.assert_allclose(passive, probe_emission + probe_reflectance * (probes @ truth), rtol=1e-7)
+
+
+def test_a_system_without_a_solution_is_refused():
+    matrix = np.array([[0.0, 1.0], [1.0, 0.0]]) * 1.2  # row sums over 1: light would grow forever
+    with pytest.raises(ValueError, match="does not converge"):
+        solvers.jacobi(matrix, np.full((2, 1), 0.9), np.ones((2, 1)))
+
+
+@pytest.mark.parametrize("method", ["raycast", "hemicube"])
+def test_every_solver_gives_the_same_bake(method):
+    """Same discretisation and form factors, so the same answer to the solvers' tolerance; the
+    progressive hemicube uses reciprocity instead (checked separately in the furnace tests)."""
+    scene = lit_room()
+    solver_list = ["progressive", "jacobi", "gauss_seidel"] if method == "raycast" else ["jacobi", "gauss_seidel"]
+    results = [bake(scene, method, solver, tolerance=1e-6, ambient=False).corner_colors for solver in solver_list]
+    for other in results[1:]:
+        np.testing.assert_allclose(other, results[0], rtol=1e-4, atol=1e-5 * results[0].max())
+
+
+def test_an_explicit_matrix_over_the_memory_budget_is_refused():
+    with pytest.raises(ValueError, match=r"needs a [\d,]+ x [\d,]+ form-factor matrix .* over the memory budget"):
+        bake(lit_room(), "raycast", "jacobi", memory_budget=1000)
