@@ -53,11 +53,17 @@ def progressive(
     (``batch`` at most), since they are about to shoot. Columns are kept while they fit
     ``cache_bytes``, so reshooting is cheap in small scenes; memory otherwise stays O(P + N).
 
-    Stops when the energy still unshot, with all its future bounces (times 1 / (1 - rho_mean)),
-    is at most ``tolerance`` times the energy already distributed. With ``ambient`` the result
-    adds that remainder as the uniform ambient term of Cohen et al.,
-    rho_r (sum A U / sum A) / (1 - rho_mean): it always restores the total energy in a closed
-    scene of uniform reflectance, and every value when the unshot light is uniform.
+    Stops when the light still unshot, with all its future bounces in a closed scene,
+    sum A U / (1 - rho_mean), is at most ``tolerance`` times the energy already distributed
+    (where light escapes, that overestimates what is left: the stop is conservative).
+
+    With ``ambient`` the result adds the remainder as a uniform ambient term (Cohen et al.
+    1988): rho_r * c (sum A U / sum A) / (1 - c rho_mean), where c is the share of the power
+    shot so far that landed on patches (sum_p A_p F_pq / A_q per shot, weighted by its power):
+    1 in a closed scene, as Cohen et al. assume, and less where light escapes. It restores the
+    total energy of a closed scene of uniform reflectance, and every value when the unshot
+    light is uniform. (c estimates the light already shot, so it is not used to stop: a shooter
+    yet to shoot may reach far more.)
     Returns B of the patches (P, C), B of the passive points (N, C) and the statistics.
     """
     patch_count, channels = emission.shape
@@ -68,14 +74,14 @@ def progressive(
     unshot = emission.copy()
     total_area = areas.sum()
     mean_reflectance = (areas @ reflectance) / total_area
-    bounce_gain = 1.0 / (1.0 - mean_reflectance)  # (C,)
+    power_shot = power_captured = 0.0
     cache: dict[int, np.ndarray] = {}
     cache_limit = max(batch, cache_bytes // (8 * len(radiosity)))
     shots = 0
     limit = max_shots if max_shots is not None else np.inf  # it converges for rho < 1: the caller may cancel
     undistributed = 1.0
     while shots < limit:
-        remaining = float(areas @ unshot @ bounce_gain)
+        remaining = float(areas @ unshot @ (1.0 / (1.0 - mean_reflectance)))
         distributed = float(areas @ radiosity[:patch_count].sum(axis=1))
         undistributed = remaining / distributed if distributed > 0 else 0.0
         if undistributed <= tolerance:
@@ -91,13 +97,17 @@ def progressive(
         factors = cache[source]
         while len(cache) > cache_limit:  # forget the oldest columns first, never the prefetched
             del cache[next(iter(cache))]
+        shot_power = areas[source] * shooting.sum()
+        power_shot += shot_power
+        power_captured += shot_power * (areas @ factors[:patch_count]) / areas[source]
         received = all_reflectance * (factors[:, None] * shooting[None, :])
         radiosity += received
         unshot += received[:patch_count]
         unshot[source] = 0.0
         shots += 1
         report(_effort(undistributed, tolerance), f"{shots} shots, {100 * undistributed:.2g}% unshot")
-    ambient_term = (areas @ unshot) / total_area * bounce_gain
+    captured = power_captured / power_shot if power_shot > 0 else 1.0
+    ambient_term = (areas @ unshot) / total_area * captured / (1.0 - captured * mean_reflectance)
     if ambient:
         radiosity += all_reflectance * ambient_term
     return radiosity[:patch_count], radiosity[patch_count:], {
@@ -105,6 +115,7 @@ def progressive(
         "converged": undistributed <= tolerance,
         "unshot_fraction": undistributed,
         "ambient": (ambient_term if ambient else 0 * ambient_term).tolist(),
+        "captured_fraction": captured,
         "cached_columns": len(cache),
     }
 

@@ -1,7 +1,6 @@
 """Every ray of the project goes through here: segment occlusion and nearest hits over Embree.
 
-The triangles are re-centred and scaled to unit size (by a power of two) before they become
-float32 for Embree, and ray offsets are a fixed fraction of that unit size, so results do not
+The triangles are re-centred and scaled to unit size before they become float32 for Embree, and ray offsets are a fixed fraction of that unit size, so results do not
 depend on the scene's scale. embreex releases the GIL while it traces, so callers run batches from several threads.
 """
 
@@ -13,8 +12,7 @@ import numpy as np
 from embreex import rtcore_scene
 from embreex.mesh_construction import TriangleMesh
 
-# Rays start and stop this far (in unit space, where the scene's extent is between 1/2 and 1) from
-# their end points, so a ray does not hit the surface it leaves or the one it aims at (float32
+# Rays start and stop this far (in unit space, where the scene's extent is 1) from their end points, so a ray does not hit the surface it leaves or the one it aims at (float32
 # resolves about 6e-8 there).
 RAY_EPSILON = 1e-5
 
@@ -29,9 +27,8 @@ class Visibility:
         points = corners.reshape(-1, 3)
         low, high = points.min(axis=0), points.max(axis=0)
         self.center = (low + high) / 2
-        extent = max(float(np.linalg.norm(high - low)), np.finfo(float).tiny)
-        # a power of two, so a scaled copy of a scene traces the very same float32 rays
-        self.scale = 2.0 ** -np.ceil(np.log2(extent))
+        # unit extent: a scaled copy of a scene traces the same float32 rays (up to rounding)
+        self.scale = 1.0 / max(float(np.linalg.norm(high - low)), np.finfo(float).tiny)
         self._scene = rtcore_scene.EmbreeScene()
         TriangleMesh(self._scene, self.to_unit(corners.reshape(-1, 3)).reshape(-1, 3, 3))
         self.rays_cast = 0
