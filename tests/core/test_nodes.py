@@ -1,0 +1,59 @@
+"""Receiver nodes: one per (vertex, material, smooth normal), so colour may jump at creases and
+material borders and is shared elsewhere."""
+
+import numpy as np
+
+from core import Scene, bake
+from core.discretize import discretize
+from tests.core.scenes import box, merge, quad, uniform
+
+
+def test_a_box_corner_has_one_node_per_face_below_the_crease_angle():
+    """A cube's faces meet at 90 degrees: with a 30 degree crease angle each corner vertex
+    has three nodes (one per face); with 100 degrees the faces share one node per corner."""
+    scene = uniform(*box(), 0.5, 1.0)
+    assert discretize(scene, None, np.radians(30)).node_count == 24
+    assert discretize(scene, None, np.radians(100)).node_count == 8
+
+
+def test_a_material_border_splits_nodes_and_colour_jumps_there():
+    """A floor of two halves, black and white, lit from above: the vertices on the border get
+    one node per side, white-side colour > 0 and black-side colour 0."""
+    left = quad([0, 0, 0], [0.5, 0, 0], [0, 1, 0])
+    right = quad([0.5, 0, 0], [0.5, 0, 0], [0, 1, 0])
+    light = quad([0, 0, 1], [0, 1, 0], [1, 0, 0])
+    vertices, triangles = merge(left, right, light)
+    reflectance = np.array([[0.0] * 3] * 2 + [[0.8] * 3] * 2 + [[0.0] * 3] * 2)
+    emission = np.zeros((6, 3))
+    emission[4:] = 1.0
+    scene = Scene(vertices, triangles, reflectance, emission)
+    mesh = discretize(scene, None)
+    border = np.isclose(vertices[triangles][..., 0], 0.5)  # (T, 3) corners on x = 0.5
+    left_nodes = set(mesh.corner_node[:2][border[:2]])
+    right_nodes = set(mesh.corner_node[2:4][border[2:4]])
+    assert len(left_nodes) == 2 and len(right_nodes) == 2 and not left_nodes & right_nodes
+    result = bake(scene)
+    assert (result.corner_colors[:2][border[:2]] == 0).all()
+    assert (result.corner_colors[2:4][border[2:4]] > 0.1).all()
+
+
+def test_the_same_vertex_in_two_coplanar_triangles_shares_one_colour():
+    """Welded positions: two quads with separate but coincident vertices share nodes."""
+    vertices, triangles = merge(quad([0, 0, 0], [1, 0, 0], [0, 1, 0]), quad([1, 0, 0], [1, 0, 0], [0, 1, 0]))
+    scene = uniform(vertices, triangles, 0.5, 0.0)
+    mesh = discretize(scene, None)
+    assert mesh.node_count == 6
+
+
+def test_smooth_nodes_take_the_mean_normal():
+    """Two faces at 20 degrees with a 30 degree crease angle share nodes along their edge,
+    facing the area-weighted mean normal (10 degrees from each)."""
+    angle = np.radians(20)
+    flat = quad([0, 0, 0], [1, 0, 0], [0, 1, 0])
+    tilted = quad([0, 0, 0], [0, 1, 0], [-np.cos(angle), 0, np.sin(angle)])  # faces (sin, 0, cos): up
+    scene = uniform(*merge(flat, tilted), 0.5, 0.0)
+    mesh = discretize(scene, None, np.radians(30))
+    assert mesh.node_count == 6
+    edge_nodes = mesh.corner_node[0][np.isclose(scene.vertices[scene.triangles[0], 0], 0)]
+    tilt = np.degrees(np.arccos(mesh.node_normals[edge_nodes] @ [0, 0, 1]))
+    np.testing.assert_allclose(tilt, 10.0, rtol=1e-9)
