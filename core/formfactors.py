@@ -117,8 +117,7 @@ class FormFactorEngine:
     def _block(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray) -> np.ndarray:
         mesh = self.mesh
         if self.method == "hemicube":
-            full = hemicube.form_factor_rows(points, normals, self.resolution, self.visibility,
-                                             mesh.patch_normals, mesh.back_of_front, mesh.patch_count)
+            full = hemicube.form_factor_rows(points, normals, self.resolution, self.visibility, mesh)
             return full[:, sources]
         receivers = np.repeat(np.arange(len(points)), len(sources))
         values = self.raycaster.form_factors(points, normals, receivers, np.tile(sources, len(points)))

@@ -20,6 +20,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .discretize import Discretization
 from .geometry import tangent_frames
 from .visibility import Visibility
 
@@ -72,14 +73,10 @@ def pixels(resolution: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def visible_patches(
-    points: np.ndarray,
-    normals: np.ndarray,
-    resolution: int,
-    visibility: Visibility,
-    patch_normals: np.ndarray,
-    back_of_front: np.ndarray,
+    points: np.ndarray, normals: np.ndarray, resolution: int, visibility: Visibility, mesh: Discretization
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Hemicubes at ``points`` (m, 3) facing ``normals`` (m, 3): the patch seen in each pixel.
+    """Hemicubes at ``points`` (m, 3) facing ``normals`` (m, 3): the patch of ``mesh`` seen in
+    each pixel (``visibility`` traces its front patches).
 
     Returns (m, 3 N^2) int patch indices (-1: nothing, or the back of a one-sided patch) and the
     pixels' delta form factors (3 N^2,). A front patch seen from behind is its back patch.
@@ -93,22 +90,17 @@ def visible_patches(
     seen = hit.copy()
     struck = hit >= 0
     from_behind = np.zeros_like(struck)
-    from_behind[struck] = np.einsum("nx,nx->n", directions[struck], patch_normals[hit[struck]]) > 0
-    seen[from_behind] = back_of_front[hit[from_behind]]
+    from_behind[struck] = np.einsum("nx,nx->n", directions[struck], mesh.patch_normals[hit[struck]]) > 0
+    seen[from_behind] = mesh.back_of_front[hit[from_behind]]
     return seen, factors
 
 
 def form_factor_rows(
-    points: np.ndarray,
-    normals: np.ndarray,
-    resolution: int,
-    visibility: Visibility,
-    patch_normals: np.ndarray,
-    back_of_front: np.ndarray,
-    patch_count: int,
+    points: np.ndarray, normals: np.ndarray, resolution: int, visibility: Visibility, mesh: Discretization
 ) -> np.ndarray:
     """(m, P) form factors from points to every patch: the sum of dF over the pixels showing it."""
-    seen, factors = visible_patches(points, normals, resolution, visibility, patch_normals, back_of_front)
+    patch_count = mesh.patch_count
+    seen, factors = visible_patches(points, normals, resolution, visibility, mesh)
     rows = np.broadcast_to(np.arange(len(points))[:, None], seen.shape)
     shown = seen >= 0
     weights = np.broadcast_to(factors, seen.shape)[shown]

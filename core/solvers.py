@@ -142,24 +142,10 @@ def jacobi(
     max_iterations: int = 1_000_000,
     report: Report = _quiet,
 ) -> tuple[np.ndarray, dict]:
-    """Jacobi iteration B <- E + rho * (F @ B). With q = max rho_p sum_q F_pq < 1 the error is
-    at most |r|_inf / (1 - q) for the residual r = E + rho F B - B; stops when that bound is
-    at most ``tolerance`` * |B|_inf."""
-    factor = _bound_factor(matrix, reflectance)
-    _check_contraction(factor)
-    radiosity = emission.copy()
-    iterations, error_bound = 0, np.inf
-    while iterations < max_iterations:
-        updated = emission + reflectance * (matrix @ radiosity)
-        residual = np.abs(updated - radiosity).max()
-        radiosity = updated
-        iterations += 1
-        scale = np.abs(radiosity).max()
-        error_bound = residual / (1 - factor) / scale if scale > 0 else 0.0
-        if error_bound <= tolerance:
-            break
-        report(_effort(error_bound, tolerance), f"iteration {iterations}, error bound {error_bound:.2g}")
-    return radiosity, _iteration_stats(matrix, reflectance, emission, radiosity, iterations, error_bound, tolerance)
+    """Jacobi iteration B <- E + rho * (F @ B), that is B <- B + r for the residual
+    r = E + rho F B - B. Stops on the error bound of ``_iterate``."""
+    return _iterate(lambda radiosity, residual: radiosity + residual, "iteration",
+                    matrix, reflectance, emission, tolerance, max_iterations, report)
 
 
 def gauss_seidel(
@@ -171,30 +157,35 @@ def gauss_seidel(
     report: Report = _quiet,
 ) -> tuple[np.ndarray, dict]:
     """Gauss-Seidel: each sweep updates B_p = E_p + rho_p sum_q F_pq B_q in place, row by row,
-    using the newest values. Stops on the same error bound as ``jacobi`` (computed from the
-    residual after each sweep)."""
+    using the newest values. Stops on the error bound of ``_iterate``."""
+    last_report = [time.perf_counter()]
+
+    def sweep(radiosity, _residual):
+        for row in range(len(matrix)):
+            radiosity[row] = emission[row] + reflectance[row] * (matrix[row] @ radiosity)
+            if time.perf_counter() - last_report[0] > 0.05:
+                last_report[0] = time.perf_counter()
+                report(row / len(matrix), f"row {row} of {len(matrix)}")
+        return radiosity
+
+    return _iterate(sweep, "sweep", matrix, reflectance, emission, tolerance, max_iterations, report)
+
+
+def _iterate(sweep, name, matrix, reflectance, emission, tolerance, max_iterations, report) -> tuple[np.ndarray, dict]:
+    """Run ``sweep(B, r)`` until the error bound is at most ``tolerance`` * |B|_inf: with
+    q = max_p rho_p sum_q |F_pq| < 1 (a contraction), |B - B*|_inf <= |r|_inf / (1 - q)."""
     factor = _bound_factor(matrix, reflectance)
     _check_contraction(factor)
     radiosity = emission.copy()
-    iterations, error_bound = 0, np.inf
-    last_report = time.perf_counter()
-    while iterations < max_iterations:
-        for row in range(len(matrix)):
-            radiosity[row] = emission[row] + reflectance[row] * (matrix[row] @ radiosity)
-            if time.perf_counter() - last_report > 0.05:
-                last_report = time.perf_counter()
-                report(_effort(error_bound, tolerance), f"sweep {iterations + 1}, row {row}")
-        iterations += 1
-        residual = np.abs(emission + reflectance * (matrix @ radiosity) - radiosity).max()
+    iterations = 0
+    while True:
+        residual = emission + reflectance * (matrix @ radiosity) - radiosity
         scale = np.abs(radiosity).max()
-        error_bound = residual / (1 - factor) / scale if scale > 0 else 0.0
-        if error_bound <= tolerance:
+        error_bound = np.abs(residual).max() / (1 - factor) / scale if scale > 0 else 0.0
+        if error_bound <= tolerance or iterations >= max_iterations:
             break
-        report(_effort(error_bound, tolerance), f"sweep {iterations}, error bound {error_bound:.2g}")
-    return radiosity, _iteration_stats(matrix, reflectance, emission, radiosity, iterations, error_bound, tolerance)
-
-
-def _iteration_stats(matrix, reflectance, emission, radiosity, iterations, error_bound, tolerance) -> dict:
-    residual = np.abs(emission + reflectance * (matrix @ radiosity) - radiosity).max()
-    return {"iterations": iterations, "converged": bool(error_bound <= tolerance), "residual": float(residual),
-            "error_bound": float(error_bound)}
+        report(_effort(error_bound, tolerance), f"{name} {iterations}, error bound {error_bound:.2g}")
+        radiosity = sweep(radiosity, residual)
+        iterations += 1
+    return radiosity, {"iterations": iterations, "converged": bool(error_bound <= tolerance),
+                       "residual": float(np.abs(residual).max()), "error_bound": float(error_bound)}
