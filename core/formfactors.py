@@ -83,7 +83,7 @@ class FormFactorEngine:
         mesh = self.mesh
         return self.rows(mesh.patch_centroids[patches], mesh.patch_normals[patches], report)
 
-    def shooting_columns(self, sources: np.ndarray) -> np.ndarray:
+    def shooting_columns(self, sources: np.ndarray, report: Report = _quiet) -> np.ndarray:
         """F[r, q] for every receiver r and each patch q in ``sources`` (k,): what q shoots.
 
         Ray casting evaluates the columns directly at every patch centroid and every node
@@ -92,7 +92,7 @@ class FormFactorEngine:
         """
         mesh = self.mesh
         if self.method == "hemicube":
-            rows = self.rows(mesh.patch_centroids[sources], mesh.patch_normals[sources])
+            rows = self.rows(mesh.patch_centroids[sources], mesh.patch_normals[sources], report)
             return np.divide(rows.T * mesh.patch_areas[sources], mesh.patch_areas[:, None],
                              out=np.zeros((mesh.patch_count, len(sources))), where=mesh.patch_areas[:, None] > 0)
         points = np.concatenate([mesh.patch_centroids, mesh.node_points])
@@ -106,7 +106,11 @@ class FormFactorEngine:
             )
             return pairs.reshape(len(receivers), len(sources))
 
-        return np.concatenate(list(parallel.map_ordered(one, chunks)))
+        parts = []
+        for part in parallel.map_ordered(one, chunks):
+            parts.append(part)
+            report(len(parts) / len(chunks))
+        return np.concatenate(parts)
 
     def _rows_per_block(self, source_count: int) -> int:
         if self.method == "hemicube":

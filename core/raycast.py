@@ -25,7 +25,8 @@ _GOLDEN = (np.sqrt(5) - 1) / 2
 
 def stratified_samples(patch_corners: np.ndarray, count: int, seed: int) -> np.ndarray:
     """(P, count, 3) points on each patch, one in each of ``count`` (a perfect square) congruent
-    strata; a uniform point in a triangle is (1 - sqrt(u), sqrt(u) (1 - v), sqrt(u) v)."""
+    strata; a uniform point in a triangle is (1 - sqrt(u), sqrt(u) (1 - v), sqrt(u) v). The
+    result has the dtype of ``patch_corners``."""
     divisions = int(round(np.sqrt(count)))
     if count < 1 or divisions * divisions != count:
         raise ValueError(f"rays per form factor must be a perfect square (1, 4, 9, 16, ...), got {count}")
@@ -33,12 +34,13 @@ def stratified_samples(patch_corners: np.ndarray, count: int, seed: int) -> np.n
     strata = grid[cells]  # (count, 3 corners, 3 barycentric)
     base = np.arange(count)
     base = np.stack([(base + 0.5) / count, (base * _GOLDEN) % 1.0], axis=1)
-    rotation = np.random.default_rng(seed).random((len(patch_corners), 1, 2))
-    uv = (base + rotation) % 1.0
+    dtype = patch_corners.dtype
+    rotation = np.random.default_rng(seed).random((len(patch_corners), 1, 2)).astype(dtype)
+    uv = (base.astype(dtype) + rotation) % 1.0
     root = np.sqrt(uv[..., 0])
     local = np.stack([1 - root, root * (1 - uv[..., 1]), root * uv[..., 1]], axis=2)  # (P, S, 3)
-    barycentric = np.einsum("psj,sjb->psb", local, strata)
-    return np.einsum("psb,pbx->psx", barycentric, patch_corners)
+    barycentric = np.matmul(local.transpose(1, 0, 2), strata.astype(dtype)).transpose(1, 0, 2)
+    return np.matmul(barycentric, patch_corners)
 
 
 class RayCaster:
@@ -49,8 +51,8 @@ class RayCaster:
         self.normals = patch_normals
         self.visibility = visibility
         self.rays = rays
-        samples = stratified_samples(patch_corners, rays, seed)
-        self._unit_samples = visibility.to_unit(samples.reshape(-1, 3)).reshape(samples.shape)
+        unit_corners = (patch_corners - visibility.center) * visibility.scale
+        self._unit_samples = stratified_samples(unit_corners, rays, seed).astype(np.float32)
         self._unit_normals = patch_normals.astype(np.float32)
         # disc term A / (pi S) of the weight, in the unit space of the visibility module
         self._unit_disc = (patch_areas * visibility.scale**2 / (np.pi * rays)).astype(np.float32)
@@ -74,7 +76,9 @@ class RayCaster:
         weight = np.maximum(cos_receiver, 0) * np.maximum(-cos_source, 0)
         weight /= distance2 * (distance2 + self._unit_disc[sources][:, None])
         weight[weight.sum(axis=1) <= 0] = 1.0
-        reach = 1 - RAY_EPSILON / np.sqrt(distance2)  # stop RAY_EPSILON short of the source
+        # stop RAY_EPSILON short of the source's plane, measured across it: a grazing ray then
+        # cannot hit its own source through the rounding of the sample onto float32
+        reach = 1 - RAY_EPSILON / np.maximum(-cos_source, np.finfo(np.float32).tiny)
         blocked = self.visibility.occluded_unit(
             np.repeat(origin, self.rays, axis=0), offset.reshape(-1, 3), reach.reshape(-1)
         ).reshape(weight.shape)

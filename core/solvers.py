@@ -28,7 +28,7 @@ def _effort(fraction_left: float, tolerance: float) -> float:
 
 
 def progressive(
-    columns: Callable[[np.ndarray], np.ndarray],
+    columns: Callable[[np.ndarray, Callable[[float], None]], np.ndarray],
     areas: np.ndarray,
     reflectance: np.ndarray,
     emission: np.ndarray,
@@ -48,7 +48,8 @@ def progressive(
 
     Receivers are the P patches, then N passive points that receive but never shoot (the
     vertices of Wallace et al. 1989), given by ``passive_reflectance`` and ``passive_emission``
-    (N, C). ``columns(q)`` returns F[:, q] (P + N, k) for the k patches q. When the shooter's
+    (N, C). ``columns(q, tick)`` returns F[:, q] (P + N, k) for the k patches q, calling
+    ``tick(fraction done)`` as it goes. When the shooter's
     column is not at hand, the columns of the next brightest shooters are fetched with it
     (``batch`` at most), since they are about to shoot. Columns are kept while they fit
     ``cache_bytes``, so reshooting is cheap in small scenes; memory otherwise stays O(P + N).
@@ -92,7 +93,9 @@ def progressive(
         if source not in cache:
             brightest = np.argsort(-power)[: batch + len(cache)]
             wanted = [source] + [int(q) for q in brightest if q != source and q not in cache][: batch - 1]
-            for q, factors in zip(wanted, columns(np.array(wanted)).T):
+            effort, detail = _effort(undistributed, tolerance), f"{shots} shots, form factors of {len(wanted)} more"
+            fetched = columns(np.array(wanted), lambda _done: report(effort, detail))
+            for q, factors in zip(wanted, fetched.T):
                 cache[q] = factors
         factors = cache[source]
         while len(cache) > cache_limit:  # forget the oldest columns first, never the prefetched
