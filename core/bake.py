@@ -99,51 +99,22 @@ def bake(
     channels = 1 if scene.is_grey else 3
     seconds["discretise"], clock = _lap(clock)
 
+    stages.stage("preparing rays", 0.02, 0.04)
     engine = FormFactorEngine(mesh, method, settings.hemicube_resolution, settings.rays_per_form_factor, settings.seed)
-    reflectance = mesh.patch_reflectance[:, :channels]
-    emission = mesh.patch_emission[:, :channels]
-    peak = _base_bytes(mesh)
-    node_reflectance = mesh.node_reflectance[:, :channels]
-    node_emission = mesh.node_emission[:, :channels]
-    node_radiosity = None
-    if solver == "progressive":
-        stages.stage("shooting", 0.02, 0.85 if method == "hemicube" else 1.0)
-        nodes_receive = method == "raycast"  # the hemicube cannot shoot to points: gather after
-        radiosity, passive, solve_stats = solvers.progressive(
-            engine.shooting_columns, mesh.patch_areas, reflectance, emission,
-            node_reflectance if nodes_receive else None, node_emission if nodes_receive else None,
-            tolerance=settings.tolerance, ambient=settings.ambient, max_shots=settings.max_shots,
-            cache_bytes=settings.column_cache, report=stages.report,
-        )
-        if nodes_receive:
-            node_radiosity = passive
-        peak += min(settings.column_cache, solve_stats["cached_columns"] * 8 * (mesh.patch_count + mesh.node_count))
-        seconds["solve"], clock = _lap(clock)
-    else:
-        matrix_bytes = 8 * mesh.patch_count**2
-        if matrix_bytes > settings.memory_budget:
-            raise ValueError(
-                f"the {solver} solver needs a {mesh.patch_count:,} x {mesh.patch_count:,} form-factor matrix "
-                f"({matrix_bytes / 2**30:.2f} GiB), over the memory budget of {settings.memory_budget / 2**30:.2f} GiB; "
-                "use solver='progressive', a larger patch_size, or raise memory_budget"
-            )
-        stages.stage("form factors", 0.02, 0.6)
-        matrix = engine.patch_rows(np.arange(mesh.patch_count), lambda f: stages.report(f, "matrix"))
-        seconds["form_factors"], clock = _lap(clock)
-        stages.stage("solving", 0.6, 0.85)
-        solve = solvers.jacobi if solver == "jacobi" else solvers.gauss_seidel
-        radiosity, solve_stats = solve(matrix, reflectance, emission, settings.tolerance, settings.max_iterations, stages.report)
-        peak += matrix_bytes
-        seconds["solve"], clock = _lap(clock)
+    seconds["setup"], clock = _lap(clock)
 
+    solve = _solve_progressive if solver == "progressive" else _solve_explicit
+    radiosity, node_radiosity, solve_stats, extra_bytes = solve(engine, solver, settings, channels, stages, seconds)
     if node_radiosity is None:
+        clock = time.perf_counter()
         stages.stage("gathering at vertices", 0.85, 1.0)
-        node_radiosity = node_emission + node_reflectance * engine.gather(
+        node_radiosity = mesh.node_emission[:, :channels] + mesh.node_reflectance[:, :channels] * engine.gather(
             mesh.node_points, mesh.node_normals, radiosity, lambda f: stages.report(f)
         )
-        seconds["gather"], clock = _lap(clock)
+        seconds["gather"], _ = _lap(clock)
+    clock = time.perf_counter()
     corner_colors, triangle_radiosity = _per_corner(scene, mesh, radiosity, node_radiosity)
-    seconds["reconstruct"], clock = _lap(clock)
+    seconds["reconstruct"], _ = _lap(clock)
     stages.report(1.0, "done", force=True)
 
     stats = {
@@ -156,10 +127,51 @@ def bake(
         "channels": channels,
         "seconds": seconds | {"total": sum(seconds.values())},
         "rays_cast": engine.rays_cast,
-        "peak_memory_estimate": peak,
+        "peak_memory_estimate": _base_bytes(mesh) + extra_bytes,
         **solve_stats,
     }
     return BakeResult(corner_colors, triangle_radiosity, stats)
+
+
+def _solve_progressive(engine: FormFactorEngine, _solver, settings: BakeSettings, channels: int,
+                       stages: Progress, seconds: dict):
+    """Shoot; ray casting's shots reach the nodes too, the hemicube's are gathered after."""
+    mesh, clock = engine.mesh, time.perf_counter()
+    nodes_receive = engine.method == "raycast"
+    stages.stage("shooting", 0.04, 1.0 if nodes_receive else 0.85)
+    radiosity, node_radiosity, stats = solvers.progressive(
+        engine.shooting_columns, mesh.patch_areas, mesh.patch_reflectance[:, :channels],
+        mesh.patch_emission[:, :channels],
+        mesh.node_reflectance[:, :channels] if nodes_receive else None,
+        mesh.node_emission[:, :channels] if nodes_receive else None,
+        tolerance=settings.tolerance, ambient=settings.ambient, max_shots=settings.max_shots,
+        cache_bytes=settings.column_cache, report=stages.report,
+    )
+    seconds["solve"], _ = _lap(clock)
+    cache_bytes = stats["cached_columns"] * 8 * (mesh.patch_count + mesh.node_count)
+    return radiosity, node_radiosity if nodes_receive else None, stats, cache_bytes
+
+
+def _solve_explicit(engine: FormFactorEngine, solver: str, settings: BakeSettings, channels: int,
+                    stages: Progress, seconds: dict):
+    """Build the P x P matrix (within the memory budget), then Jacobi or Gauss-Seidel."""
+    mesh, clock = engine.mesh, time.perf_counter()
+    matrix_bytes = 8 * mesh.patch_count**2
+    if matrix_bytes > settings.memory_budget:
+        raise ValueError(
+            f"the {solver} solver needs a {mesh.patch_count:,} x {mesh.patch_count:,} form-factor matrix "
+            f"({matrix_bytes / 2**30:.2f} GiB), over the memory budget of {settings.memory_budget / 2**30:.2f} GiB; "
+            "use solver='progressive', a larger patch_size, or raise memory_budget"
+        )
+    stages.stage("form factors", 0.04, 0.6)
+    matrix = engine.patch_rows(np.arange(mesh.patch_count), lambda f: stages.report(f, "matrix"))
+    seconds["form_factors"], clock = _lap(clock)
+    stages.stage("solving", 0.6, 0.85)
+    iterate = solvers.jacobi if solver == "jacobi" else solvers.gauss_seidel
+    radiosity, stats = iterate(matrix, mesh.patch_reflectance[:, :channels], mesh.patch_emission[:, :channels],
+                               settings.tolerance, settings.max_iterations, stages.report)
+    seconds["solve"], _ = _lap(clock)
+    return radiosity, None, stats, matrix_bytes
 
 
 def _lap(start: float) -> tuple[float, float]:
