@@ -15,14 +15,14 @@ from .formfactors import METHODS, FormFactorEngine
 from .progress import Progress, ProgressCallback
 from .scene import Scene
 
-AUTO_PATCH_DIVISIONS = 6  # default patch size: the scene's extent over this
+AUTO_PATCH_DIVISIONS = 4  # default patch size: the scene's extent over this (docs/benchmarks.md)
 
 
 @dataclass(frozen=True)
 class BakeSettings:
     """The knobs of a bake, validated on construction.
 
-    patch_size : longest patch edge in scene units; None picks extent / 6.
+    patch_size : longest patch edge in scene units; None picks extent / 4.
     crease_angle : degrees; faces meeting at a sharper angle do not share a vertex colour.
     hemicube_resolution : pixels across the hemicube's top face (even).
     rays_per_form_factor : visibility rays per point-to-patch form factor (a perfect square).
