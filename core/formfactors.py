@@ -44,8 +44,10 @@ class FormFactorEngine:
         self.resolution = hemicube_resolution
         if method == "hemicube":
             hemicube.pixels(hemicube_resolution)  # validates the resolution
+        else:
+            raycast.check_ray_count(rays_per_form_factor)
         self.visibility = Visibility(mesh.patch_corners[: mesh.front_patch_count])
-        self.raycaster = raycast.RayCaster(
+        self.raycaster = None if method == "hemicube" else raycast.RayCaster(
             mesh.patch_corners, mesh.patch_normals, mesh.patch_areas, self.visibility, rays_per_form_factor, seed
         )
 
@@ -127,6 +129,7 @@ class FormFactorEngine:
         values = self.raycaster.form_factors(points, normals, receivers, np.tile(sources, len(points)))
         return values.reshape(len(points), len(sources))
 
+
 def form_factor_matrix(
     vertices: np.ndarray,
     triangles: np.ndarray,
@@ -151,10 +154,10 @@ def form_factor_matrix(
     mesh = discretize(scene, patch_size)
     engine = FormFactorEngine(mesh, method, hemicube_resolution, rays_per_form_factor, seed)
     patch_matrix = engine.patch_rows(np.arange(mesh.patch_count))
-    owner = mesh.patch_triangle
-    by_source = np.zeros((mesh.patch_count, count))
-    np.add.at(by_source.T, owner, patch_matrix.T)
+    owner = mesh.patch_triangle  # sorted: a triangle's patches are consecutive
+    present, starts = np.unique(owner, return_index=True)
+    by_source = np.add.reduceat(patch_matrix, starts, axis=1)  # (P, triangles with patches)
     weights = mesh.patch_areas / np.bincount(owner, weights=mesh.patch_areas, minlength=count)[owner]
     result = np.zeros((count, count))
-    np.add.at(result, owner, by_source * weights[:, None])
+    result[np.ix_(present, present)] = np.add.reduceat(by_source * weights[:, None], starts, axis=0)
     return result

@@ -23,14 +23,19 @@ from .visibility import RAY_EPSILON, Visibility
 _GOLDEN = (np.sqrt(5) - 1) / 2
 
 
+def check_ray_count(count: int) -> int:
+    """The strata per edge for ``count`` rays, which must be a perfect square."""
+    divisions = int(round(np.sqrt(count)))
+    if count < 1 or divisions * divisions != count:
+        raise ValueError(f"rays per form factor must be a perfect square (1, 4, 9, 16, ...), got {count}")
+    return divisions
+
+
 def stratified_samples(patch_corners: np.ndarray, count: int, seed: int) -> np.ndarray:
     """(P, count, 3) points on each patch, one in each of ``count`` (a perfect square) congruent
     strata; a uniform point in a triangle is (1 - sqrt(u), sqrt(u) (1 - v), sqrt(u) v). The
     result has the dtype of ``patch_corners``."""
-    divisions = int(round(np.sqrt(count)))
-    if count < 1 or divisions * divisions != count:
-        raise ValueError(f"rays per form factor must be a perfect square (1, 4, 9, 16, ...), got {count}")
-    grid, cells = barycentric_grid(divisions)
+    grid, cells = barycentric_grid(check_ray_count(count))
     strata = grid[cells]  # (count, 3 corners, 3 barycentric)
     base = np.arange(count)
     base = np.stack([(base + 0.5) / count, (base * _GOLDEN) % 1.0], axis=1)
