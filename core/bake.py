@@ -127,7 +127,7 @@ def bake(
         "channels": channels,
         "seconds": seconds | {"total": sum(seconds.values())},
         "rays_cast": engine.rays_cast,
-        "peak_memory_estimate": _base_bytes(mesh) + extra_bytes,
+        "peak_memory_estimate": _base_bytes(mesh) + extra_bytes + engine.working_bytes(),
         **solve_stats,
     }
     return BakeResult(corner_colors, triangle_radiosity, stats)

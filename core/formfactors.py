@@ -13,9 +13,9 @@ from .scene import Scene
 from .visibility import Visibility
 
 METHODS = ("hemicube", "raycast")
-# Rays (and point-patch pairs) per block: about 0.02 s of work on one core, so that progress is
+# Rays and point-patch pairs per block: about 0.03 s of work on one core, so that progress is
 # reported well within its 0.2 s promise while the pool stays busy.
-RAYS_PER_BLOCK = 1 << 16
+RAYS_PER_BLOCK = 1 << 18
 PAIRS_PER_BLOCK = 1 << 14
 
 Report = Callable[[float], None]
@@ -54,6 +54,20 @@ class FormFactorEngine:
     @property
     def rays_cast(self) -> int:
         return self.visibility.rays_cast
+
+    def working_bytes(self) -> int:
+        """Estimated peak of the temporary arrays of the blocks in flight (one per thread, and
+        one waiting): per ray-cast pair about 200 bytes plus 32 per ray, per hemicube ray about
+        100 bytes plus the block's dense rows (upper bounds, from tracemalloc on the Cornell
+        box)."""
+        in_flight = parallel.THREADS + 1
+        if self.method == "hemicube":
+            rows = self._rows_per_block(0)
+            return in_flight * (rows * len(hemicube.pixels(self.resolution)[1]) * 100 + rows * self.mesh.patch_count * 16)
+        return in_flight * self._pairs_per_block() * (200 + 32 * self.raycaster.rays)
+
+    def _pairs_per_block(self) -> int:
+        return max(1, min(PAIRS_PER_BLOCK, RAYS_PER_BLOCK // self.raycaster.rays))
 
     def rows(self, points: np.ndarray, normals: np.ndarray, report: Report = _quiet) -> np.ndarray:
         """(m, P) form factors from points (m, 3) facing normals (m, 3) to every patch."""
@@ -99,7 +113,7 @@ class FormFactorEngine:
                              out=np.zeros((mesh.patch_count, len(sources))), where=mesh.patch_areas[:, None] > 0)
         points = np.concatenate([mesh.patch_centroids, mesh.node_points])
         normals = np.concatenate([mesh.patch_normals, mesh.node_normals])
-        pieces = max(parallel.THREADS, -(-len(points) * len(sources) // PAIRS_PER_BLOCK))
+        pieces = max(parallel.THREADS, -(-len(points) * len(sources) // self._pairs_per_block()))
         chunks = np.array_split(np.arange(len(points)), min(pieces, len(points)))
 
         def one(receivers):
@@ -117,8 +131,7 @@ class FormFactorEngine:
     def _rows_per_block(self, source_count: int) -> int:
         if self.method == "hemicube":
             return max(1, RAYS_PER_BLOCK // len(hemicube.pixels(self.resolution)[1]))
-        per_row = max(1, source_count)
-        return max(1, min(PAIRS_PER_BLOCK // per_row, RAYS_PER_BLOCK // (per_row * self.raycaster.rays)))
+        return max(1, self._pairs_per_block() // max(1, source_count))
 
     def _block(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray) -> np.ndarray:
         mesh = self.mesh

@@ -84,7 +84,7 @@ def visible_patches(
     local, factors = pixels(resolution)
     tangent, bitangent = tangent_frames(normals)
     frames = np.stack([tangent, bitangent, normals], axis=1)  # (m, 3 axes, 3)
-    directions = np.einsum("kc,mcx->mkx", local, frames)
+    directions = local @ frames  # (m, 3 N^2, 3)
     origins = np.broadcast_to(points[:, None, :], directions.shape)
     hit = visibility.nearest(origins.reshape(-1, 3), directions.reshape(-1, 3)).reshape(len(points), -1)
     seen = hit.copy()

@@ -71,9 +71,9 @@ class RayCaster:
         if len(lit) == 0:
             return unoccluded
         receivers, sources = receivers[lit], sources[lit]
-        normal = self.visibility.to_unit_directions(normals)[receivers]
+        normal = self.visibility.to_unit_directions(normals[receivers])
         # start RAY_EPSILON off the receiving surface, so a grazing ray cannot re-enter it
-        origin = self.visibility.to_unit(points)[receivers] + RAY_EPSILON * normal  # (k, 3)
+        origin = self.visibility.to_unit(points[receivers]) + RAY_EPSILON * normal  # (k, 3)
         offset = self._unit_samples[sources] - origin[:, None, :]  # (k, S, 3): the rays, t in [0, 1]
         distance2 = np.einsum("ksx,ksx->ks", offset, offset)
         cos_receiver = (offset @ normal[:, :, None])[..., 0]  # times distance

@@ -55,8 +55,9 @@ def progressive(
     ``cache_bytes``, so reshooting is cheap in small scenes; memory otherwise stays O(P + N).
 
     Stops when the light still unshot, with all its future bounces in a closed scene,
-    sum A U / (1 - rho_mean), is at most ``tolerance`` times the energy already distributed
-    (where light escapes, that overestimates what is left: the stop is conservative).
+    sum A U / (1 - rho_mean), is at most ``tolerance`` of all the light, distributed and not
+    (where light escapes, that overestimates what is left: the stop is conservative). That
+    share is reported as ``unshot_fraction``.
 
     With ``ambient`` the result adds the remainder as a uniform ambient term (Cohen et al.
     1988): rho_r * c (sum A U / sum A) / (1 - c rho_mean), where c is the share of the power
@@ -84,7 +85,7 @@ def progressive(
     while shots < limit:
         remaining = float(areas @ unshot @ (1.0 / (1.0 - mean_reflectance)))
         distributed = float(areas @ radiosity[:patch_count].sum(axis=1))
-        undistributed = remaining / distributed if distributed > 0 else 0.0
+        undistributed = remaining / (remaining + distributed) if remaining > 0 else 0.0
         if undistributed <= tolerance:
             break
         power = areas * unshot.sum(axis=1)

@@ -42,7 +42,7 @@ def test_gauss_seidel_needs_fewer_sweeps_than_jacobi(system):
 
 @pytest.mark.parametrize("ambient", [False, True])
 def test_progressive_refinement_agrees_with_a_direct_solve(system, ambient):
-    """Shooting until the undistributed light is below 1e-9 of the distributed: the remaining
+    """Shooting until the undistributed light is below 1e-9 of all the light: the remaining
     error is of that order times the mean reflectance's gain, with or without the ambient term."""
     matrix, reflectance, emission = system
     truth = exact(*system)
