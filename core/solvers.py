@@ -6,6 +6,7 @@ is called often; it raises BakeCancelled to stop.
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Callable
 
@@ -24,7 +25,7 @@ def _effort(fraction_left: float, tolerance: float) -> float:
     """Progress 0..1 as the (log of the) remaining fraction falls from 1 to the tolerance."""
     if fraction_left <= tolerance:
         return 1.0
-    return float(np.clip(np.log(fraction_left) / np.log(tolerance), 0.0, 1.0))
+    return min(max(math.log(fraction_left) / math.log(tolerance), 0.0), 1.0)
 
 
 def progressive(
@@ -76,15 +77,18 @@ def progressive(
     unshot = emission.copy()
     total_area = areas.sum()
     mean_reflectance = (areas @ reflectance) / total_area
+    gain = 1.0 / (1.0 - mean_reflectance)  # (C,) all future bounces, closed scene
+    reflected_area = areas[:, None] * reflectance  # (P, C)
     power_shot = power_captured = 0.0
-    cache: dict[int, np.ndarray] = {}
+    cache: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}  # q: F[:, q], F[:P, q] @ A rho, capture
     cache_limit = max(batch, cache_bytes // (8 * len(radiosity)))
     shots = 0
     limit = max_shots if max_shots is not None else np.inf  # it converges for rho < 1: the caller may cancel
     undistributed = 1.0
     while shots < limit:
-        remaining = float(areas @ unshot @ (1.0 / (1.0 - mean_reflectance)))
-        distributed = float(areas @ radiosity[:patch_count].sum(axis=1))
+        if shots % 1000 == 0:  # exact sums now and then; updated per shot in between
+            remaining = float(areas @ unshot @ gain)
+            distributed = float(areas @ radiosity[:patch_count].sum(axis=1))
         undistributed = remaining / (remaining + distributed) if remaining > 0 else 0.0
         if undistributed <= tolerance:
             break
@@ -97,17 +101,19 @@ def progressive(
             effort, detail = _effort(undistributed, tolerance), f"{shots} shots, form factors of {len(wanted)} more"
             fetched = columns(np.array(wanted), lambda _done: report(effort, detail))
             for q, factors in zip(wanted, fetched.T):
-                cache[q] = factors
-        factors = cache[source]
+                cache[q] = (factors, factors[:patch_count] @ reflected_area, areas @ factors[:patch_count] / areas[q])
+        factors, reflected, capture = cache[source]
         while len(cache) > cache_limit:  # forget the oldest columns first, never the prefetched
             del cache[next(iter(cache))]
         shot_power = areas[source] * shooting.sum()
         power_shot += shot_power
-        power_captured += shot_power * (areas @ factors[:patch_count]) / areas[source]
+        power_captured += shot_power * capture
         received = all_reflectance * (factors[:, None] * shooting[None, :])
         radiosity += received
         unshot += received[:patch_count]
         unshot[source] = 0.0
+        distributed += float(shooting @ reflected)
+        remaining += float((shooting * reflected) @ gain - areas[source] * shooting @ gain)
         shots += 1
         report(_effort(undistributed, tolerance), f"{shots} shots, {100 * undistributed:.2g}% unshot")
     captured = power_captured / power_shot if power_shot > 0 else 1.0
