@@ -23,12 +23,18 @@ def point_to_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.nda
     x, y, z = relative[..., 0], relative[..., 1], relative[..., 2]  # (n, 3) each
     ex, ey, ez = x[:, 1] - x[:, 0], y[:, 1] - y[:, 0], z[:, 1] - z[:, 0]
     fx, fy, fz = x[:, 2] - x[:, 0], y[:, 2] - y[:, 0], z[:, 2] - z[:, 0]
-    # the point is in front when (e x f) . (v0 - point) < 0
-    facing = (ey * fz - ez * fy) * x[:, 0] + (ez * fx - ex * fz) * y[:, 0] + (ex * fy - ey * fx) * z[:, 0] < 0
-    height = relative @ normals[:, :, None]  # (n, 3, 1) above the receiver's plane
-    height = height[..., 0]
+    nx, ny, nz = ey * fz - ez * fy, ez * fx - ex * fz, ex * fy - ey * fx  # e x f, twice the area
+    double_area = np.sqrt(nx * nx + ny * ny + nz * nz)
+    # Heights below this count as zero: rounding noise when the point lies in the triangle's
+    # plane or the triangle in the point's (a patch must not see itself or its coplanar
+    # neighbours), scaled by the triangle's size and by the coordinates' magnitude.
+    size = np.sqrt(np.maximum(ex * ex + ey * ey + ez * ez, fx * fx + fy * fy + fz * fz))
+    zero = 1e-9 * size + 1e-13 * np.abs(triangles).max(axis=(1, 2))
+    in_front = -(nx * x[:, 0] + ny * y[:, 0] + nz * z[:, 0])  # the point's height over the triangle, times 2A
+    facing = in_front > zero * double_area
+    height = (relative @ normals[:, :, None])[..., 0]  # (n, 3) above the receiver's plane
     result = np.zeros(len(points))
-    above = facing & (height.max(axis=1) > 0)
+    above = facing & (height.max(axis=1) > zero)
     whole = above & (height.min(axis=1) >= 0)
     index = np.flatnonzero(whole)
     result[index] = _contour(relative[index], normals[index])

@@ -23,7 +23,8 @@ class BakeSettings:
     """The knobs of a bake, validated on construction.
 
     patch_size : longest patch edge in scene units; None picks extent / 4.
-    crease_angle : degrees; faces meeting at a sharper angle do not share a vertex colour.
+    crease_angle : degrees; faces meeting at a sharper angle (and always beyond 90) do not
+        share a vertex colour.
     hemicube_resolution : pixels across the hemicube's top face (even).
     rays_per_form_factor : visibility rays per point-to-patch form factor (a perfect square).
     tolerance : stop when the estimated fraction of light not yet distributed (progressive) or

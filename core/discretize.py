@@ -194,9 +194,10 @@ def _smoothing_groups(weld, material, normals, degenerate, crease_angle) -> np.n
     same_edge = (edge_keys[first] == edge_keys[second]).all(axis=1)
     first, second = first[same_edge], second[same_edge]
     tri_a, tri_b = first // 3, second // 3
-    smooth = (material[tri_a] == material[tri_b]) & (
-        (normals[tri_a] * normals[tri_b]).sum(axis=1) >= np.cos(crease_angle) - 1e-12
-    )
+    cosine = (normals[tri_a] * normals[tri_b]).sum(axis=1)
+    # faces folded back over each other (more than 90 degrees) never share a node: their mean
+    # normal would be meaningless (the two sides of a two-sided card cancel exactly)
+    smooth = (material[tri_a] == material[tri_b]) & (cosine >= np.cos(crease_angle) - 1e-12) & (cosine > -1e-9)
     first, second = first[smooth], second[smooth]
     # corner of triangle b at each endpoint of the shared edge: match by welded vertex
     pairs = []

@@ -17,6 +17,8 @@ METHODS = ("hemicube", "raycast")
 # reported well within its 0.2 s promise while the pool stays busy.
 RAYS_PER_BLOCK = 1 << 18
 PAIRS_PER_BLOCK = 1 << 14
+# Pixels across the hemicube that measures how much of a shooter's light lands on patches.
+CAPTURE_RESOLUTION = 8
 
 Report = Callable[[float], None]
 
@@ -72,7 +74,12 @@ class FormFactorEngine:
     def rows(self, points: np.ndarray, normals: np.ndarray, report: Report = _quiet) -> np.ndarray:
         """(m, P) form factors from points (m, 3) facing normals (m, 3) to every patch."""
         sources = np.arange(self.mesh.patch_count)
-        return np.concatenate(list(self._blocks(points, normals, sources, lambda block: block, report)))
+        result = np.empty((len(points), len(sources)))  # filled in place: the matrix exists once
+        start = 0
+        for block in self._blocks(points, normals, sources, lambda block: block, report):
+            result[start : start + len(block)] = block
+            start += len(block)
+        return result
 
     def gather(self, points: np.ndarray, normals: np.ndarray, radiosity: np.ndarray,
                report: Report = _quiet) -> np.ndarray:
@@ -99,18 +106,22 @@ class FormFactorEngine:
         mesh = self.mesh
         return self.rows(mesh.patch_centroids[patches], mesh.patch_normals[patches], report)
 
-    def shooting_columns(self, sources: np.ndarray, report: Report = _quiet) -> np.ndarray:
-        """F[r, q] for every receiver r and each patch q in ``sources`` (k,): what q shoots.
+    def shooting_columns(self, sources: np.ndarray, report: Report = _quiet) -> tuple[np.ndarray, np.ndarray]:
+        """F[r, q] for every receiver r and each patch q in ``sources`` (k,): what q shoots; and
+        the share of each q's light that lands on a patch (k,): 1 in a closed scene.
 
         Ray casting evaluates the columns directly at every patch centroid and every node
-        ((P + N, k) values); the hemicube sees from each source and uses reciprocity,
-        F[p, q] = A_q F[q, p] / A_p (Cohen et al. 1988), for the patches only ((P, k) values).
+        ((P + N, k) values), and measures the share with a small hemicube (CAPTURE_RESOLUTION)
+        at the source; the hemicube sees from each source and uses reciprocity,
+        F[p, q] = A_q F[q, p] / A_p (Cohen et al. 1988), for the patches only ((P, k) values),
+        and its row sum is the share.
         """
         mesh = self.mesh
         if self.method == "hemicube":
             rows = self.rows(mesh.patch_centroids[sources], mesh.patch_normals[sources], report)
-            return np.divide(rows.T * mesh.patch_areas[sources], mesh.patch_areas[:, None],
-                             out=np.zeros((mesh.patch_count, len(sources))), where=mesh.patch_areas[:, None] > 0)
+            columns = np.divide(rows.T * mesh.patch_areas[sources], mesh.patch_areas[:, None],
+                                out=np.zeros((mesh.patch_count, len(sources))), where=mesh.patch_areas[:, None] > 0)
+            return columns, rows.sum(axis=1)
         points = np.concatenate([mesh.patch_centroids, mesh.node_points])
         normals = np.concatenate([mesh.patch_normals, mesh.node_normals])
         pieces = max(parallel.THREADS, -(-len(points) * len(sources) // self._pairs_per_block()))
@@ -126,7 +137,10 @@ class FormFactorEngine:
         for part in parallel.map_ordered(one, chunks):
             parts.append(part)
             report(len(parts) / len(chunks))
-        return np.concatenate(parts)
+        seen, factors = hemicube.visible_patches(
+            mesh.patch_centroids[sources], mesh.patch_normals[sources], CAPTURE_RESOLUTION, self.visibility, mesh
+        )
+        return np.concatenate(parts), (factors * (seen >= 0)).sum(axis=1)
 
     def _rows_per_block(self, source_count: int) -> int:
         if self.method == "hemicube":

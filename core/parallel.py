@@ -18,9 +18,13 @@ def map_ordered(function: Callable[[Item], Result], items: Iterable[Item]) -> It
     """Results of ``function`` over ``items`` in order, computed THREADS at a time ahead of the
     consumer (so a slow consumer, or one that stops early, does not queue unbounded work)."""
     pending = []
-    for item in items:
-        pending.append(_pool.submit(function, item))
-        if len(pending) > THREADS:
+    try:
+        for item in items:
+            pending.append(_pool.submit(function, item))
+            if len(pending) > THREADS:
+                yield pending.pop(0).result()
+        while pending:
             yield pending.pop(0).result()
-    for future in pending:
-        yield future.result()
+    finally:  # the consumer stopped early (a cancel, an error): drop the work not yet started
+        for future in pending:
+            future.cancel()

@@ -29,7 +29,7 @@ def _effort(fraction_left: float, tolerance: float) -> float:
 
 
 def progressive(
-    columns: Callable[[np.ndarray, Callable[[float], None]], np.ndarray],
+    columns: Callable[[np.ndarray, Callable[[float], None]], tuple[np.ndarray, np.ndarray]],
     areas: np.ndarray,
     reflectance: np.ndarray,
     emission: np.ndarray,
@@ -49,8 +49,8 @@ def progressive(
 
     Receivers are the P patches, then N passive points that receive but never shoot (the
     vertices of Wallace et al. 1989), given by ``passive_reflectance`` and ``passive_emission``
-    (N, C). ``columns(q, tick)`` returns F[:, q] (P + N, k) for the k patches q, calling
-    ``tick(fraction done)`` as it goes. When the shooter's
+    (N, C). ``columns(q, tick)`` returns F[:, q] (P + N, k) for the k patches q, and the share
+    of each one's light that lands on a patch (k,), calling ``tick(fraction done)`` as it goes. When the shooter's
     column is not at hand, the columns of the next brightest shooters are fetched with it
     (``batch`` at most), since they are about to shoot. Columns are kept while they fit
     ``cache_bytes``, so reshooting is cheap in small scenes; memory otherwise stays O(P + N).
@@ -62,8 +62,9 @@ def progressive(
 
     With ``ambient`` the result adds the remainder as a uniform ambient term (Cohen et al.
     1988): rho_r * c (sum A U / sum A) / (1 - c rho_mean), where c is the share of the power
-    shot so far that landed on patches (sum_p A_p F_pq / A_q per shot, weighted by its power):
-    1 in a closed scene, as Cohen et al. assume, and less where light escapes. It restores the
+    shot so far that landed on patches (as ``columns`` measures it per shooter, weighted by
+    the shot's power): 1 in a closed scene, as Cohen et al. assume, and less where light
+    escapes. It restores the
     total energy of a closed scene of uniform reflectance, and every value when the unshot
     light is uniform. (c estimates the light already shot, so it is not used to stop: a shooter
     yet to shoot may reach far more.)
@@ -99,9 +100,9 @@ def progressive(
             brightest = np.argsort(-power)[: batch + len(cache)]
             wanted = [source] + [int(q) for q in brightest if q != source and q not in cache][: batch - 1]
             effort, detail = _effort(undistributed, tolerance), f"{shots} shots, form factors of {len(wanted)} more"
-            fetched = columns(np.array(wanted), lambda _done: report(effort, detail))
-            for q, factors in zip(wanted, fetched.T):
-                cache[q] = (factors, factors[:patch_count] @ reflected_area, areas @ factors[:patch_count] / areas[q])
+            fetched, captures = columns(np.array(wanted), lambda _done: report(effort, detail))
+            for q, factors, capture in zip(wanted, fetched.T, np.clip(captures, 0.0, 1.0)):
+                cache[q] = (factors, factors[:patch_count] @ reflected_area, float(capture))
         factors, reflected, capture = cache[source]
         while len(cache) > cache_limit:  # forget the oldest columns first, never the prefetched
             del cache[next(iter(cache))]
@@ -116,6 +117,9 @@ def progressive(
         remaining += float((shooting * reflected) @ gain - areas[source] * shooting @ gain)
         shots += 1
         report(_effort(undistributed, tolerance), f"{shots} shots, {100 * undistributed:.2g}% unshot")
+    remaining = float(areas @ unshot @ gain)  # the state after the last shot, exactly
+    distributed = float(areas @ radiosity[:patch_count].sum(axis=1))
+    undistributed = remaining / (remaining + distributed) if remaining > 0 else 0.0
     captured = power_captured / power_shot if power_shot > 0 else 1.0
     ambient_term = (areas @ unshot) / total_area * captured / (1.0 - captured * mean_reflectance)
     if ambient:
@@ -170,12 +174,13 @@ def gauss_seidel(
     using the newest values. Stops on the error bound of ``_iterate``."""
     last_report = [time.perf_counter()]
 
-    def sweep(radiosity, _residual):
+    def sweep(radiosity, residual):
+        effort = _effort(np.abs(residual).max() / max(np.abs(radiosity).max(), np.finfo(float).tiny), tolerance)
         for row in range(len(matrix)):
             radiosity[row] = emission[row] + reflectance[row] * (matrix[row] @ radiosity)
             if time.perf_counter() - last_report[0] > 0.05:
                 last_report[0] = time.perf_counter()
-                report(row / len(matrix), f"row {row} of {len(matrix)}")
+                report(effort, f"sweep row {row} of {len(matrix)}")
         return radiosity
 
     return _iterate(sweep, "sweep", matrix, reflectance, emission, tolerance, max_iterations, report)

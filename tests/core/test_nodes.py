@@ -57,3 +57,21 @@ def test_smooth_nodes_take_the_mean_normal():
     edge_nodes = mesh.corner_node[0][np.isclose(scene.vertices[scene.triangles[0], 0], 0)]
     tilt = np.degrees(np.arccos(mesh.node_normals[edge_nodes] @ [0, 0, 1]))
     np.testing.assert_allclose(tilt, 10.0, rtol=1e-9)
+
+
+def test_the_two_sides_of_a_card_never_share_a_node():
+    """Even with a 180 degree crease angle, faces folded back onto each other keep their own
+    nodes (their mean normal would be zero): a two-sided emitter card lights a floor, and the
+    floor's lit vertex colours come out the same as with the default crease angle."""
+    card = quad([0, 0, 1], [0, 1, 0], [1, 0, 0])  # faces -z
+    back = (card[0], card[1][:, ::-1])  # the same card as separate triangles facing +z
+    floor = quad([-1, -1, 0], [3, 0, 0], [0, 3, 0])
+    vertices, triangles = merge(card, back, floor)
+    reflectance = np.array([[0.0] * 3] * 4 + [[0.5] * 3] * 2)
+    emission = np.zeros((6, 3))
+    emission[:4] = 1.0
+    scene = Scene(vertices, triangles, reflectance, emission, material=np.zeros(6, dtype=int))
+    folded = bake(scene, crease_angle=179.0)
+    default = bake(scene)
+    np.testing.assert_allclose(folded.corner_colors, default.corner_colors, rtol=1e-9)
+    assert folded.corner_colors[4:].min() > 0  # every floor vertex sees the card's lit side
