@@ -18,7 +18,7 @@ $(VENV)/.ready: pyproject.toml
 bake: $(VENV)/.ready
 	$(PY) -m core bake $(SAMPLE) --subdivide 4 --output build/cornell_box_baked.ply
 
-## The whole test suite (core tests need no Blender; each group runs in its own process)
+## The whole test suite (core tests need no Blender; add-on tests will run in a pytest process of their own)
 test: $(VENV)/.ready
 	$(PY) -m pytest tests/core -q
 

@@ -8,7 +8,7 @@ import numpy as np
 
 from core import Scene
 from core.geometry import areas_and_normals
-from core.objfile import read_obj, split_quads
+from core.objfile import read_obj, subdivide
 
 REPO = Path(__file__).resolve().parent.parent
 SCENES = REPO / ".." / "shared" / "scenes"
@@ -23,7 +23,7 @@ SKY_EMISSION = 5.0
 
 DESCRIPTIONS = {
     "cornell": f"Cornell box with a hole cut in the ceiling for the light (`{CORNELL_BOX.name}`), "
-    f"each triangle split {CORNELL_SPLIT} x {CORNELL_SPLIT} (`split_quads`) so corner colours can show the "
+    f"each triangle split {CORNELL_SPLIT} x {CORNELL_SPLIT} (`subdivide`) so corner colours can show the "
     "blocks' shadows",
     "sponza": f"Dabrovic Sponza (`{SPONZA.name}`) plus a sky light: a downward-facing emissive quad "
     f"(2 triangles, emission {SKY_EMISSION:g} in R, G and B, reflectance 0) spanning x -10.5..10.5 m, "
@@ -34,7 +34,7 @@ DESCRIPTIONS = {
 def cornell_box() -> Scene:
     """The Cornell box (ceiling-hole variant), every triangle split CORNELL_SPLIT x CORNELL_SPLIT."""
     scene, _materials = read_obj(CORNELL_BOX)
-    return split_quads(scene, CORNELL_SPLIT)
+    return subdivide(scene, CORNELL_SPLIT)
 
 
 def sponza() -> Scene:

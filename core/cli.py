@@ -11,7 +11,7 @@ import numpy as np
 from .bake import BakeSettings, bake
 from .formfactors import METHODS
 from .geometry import areas_and_normals
-from .objfile import read_obj, split_quads
+from .objfile import read_obj, subdivide
 from .plyfile import write_ply
 from .solvers import SOLVERS
 
@@ -44,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
         if arguments.subdivide < 1:
             raise ValueError(f"--subdivide must be at least 1, got {arguments.subdivide}")
         if arguments.subdivide > 1:
-            scene = split_quads(scene, arguments.subdivide)
+            scene = subdivide(scene, arguments.subdivide)
         result = bake(
             scene, arguments.method, arguments.solver, patch_size=arguments.patch_size,
             rays_per_form_factor=arguments.rays, hemicube_resolution=arguments.resolution,

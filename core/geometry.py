@@ -61,18 +61,3 @@ def barycentric_grid(divisions: int) -> tuple[np.ndarray, np.ndarray]:
             if ii + jj + 2 <= n:
                 cells.append((index[ii + 1, jj], index[ii + 1, jj + 1], index[ii, jj + 1]))
     return weights, np.array(cells, dtype=np.int64)
-
-
-def stratified_triangle_samples(count: int, rng: np.random.Generator, size: int) -> np.ndarray:
-    """(size, count, 3) barycentric weights: one uniform random point in each of ``count``
-    congruent strata of the triangle (``count`` must be a perfect square).
-
-    Uniform point in a triangle: (1 - sqrt(u), sqrt(u) (1 - v), sqrt(u) v) (Osada et al. 2002).
-    """
-    divisions = int(round(np.sqrt(count)))
-    grid, cells = barycentric_grid(divisions)
-    u = np.sqrt(rng.random((size, count)))
-    v = rng.random((size, count))
-    local = np.stack([1 - u, u * (1 - v), u * v], axis=2)  # weights within each stratum
-    stratum = grid[cells]  # (count, 3 corners, 3 barycentric)
-    return np.einsum("sck,ckb->scb", local, stratum)

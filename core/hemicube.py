@@ -85,8 +85,9 @@ def visible_patches(
     tangent, bitangent = tangent_frames(normals)
     frames = np.stack([tangent, bitangent, normals], axis=1)  # (m, 3 axes, 3)
     directions = local @ frames  # (m, 3 N^2, 3)
-    origins = np.broadcast_to(points[:, None, :], directions.shape)
-    hit = visibility.nearest(origins.reshape(-1, 3), directions.reshape(-1, 3)).reshape(len(points), -1)
+    origins = np.broadcast_to(points[:, None, :], directions.shape).reshape(-1, 3)
+    lift = np.broadcast_to(normals[:, None, :], directions.shape).reshape(-1, 3)
+    hit = visibility.nearest(origins, directions.reshape(-1, 3), lift).reshape(len(points), -1)
     seen = hit.copy()
     struck = hit >= 0
     from_behind = np.zeros_like(struck)

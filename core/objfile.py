@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .geometry import barycentric_grid
 from .scene import Scene
 
 DEFAULT_REFLECTANCE = (0.8, 0.8, 0.8)  # Blender's default material base colour
@@ -81,11 +82,9 @@ def _vertex_index(field: str, count: int, path: Path, line: int) -> int:
     return resolved
 
 
-def split_quads(scene: Scene, divisions: int) -> Scene:
+def subdivide(scene: Scene, divisions: int) -> Scene:
     """The scene with every triangle split regularly into divisions**2 triangles (what an artist
     does with Subdivide before baking vertex colours, so colours can show shadows)."""
-    from .geometry import barycentric_grid
-
     weights, cells = barycentric_grid(divisions)
     corners = scene.vertices[scene.triangles]
     points = np.einsum("gb,tbx->tgx", weights, corners).reshape(-1, 3)

@@ -31,6 +31,9 @@ class Visibility:
         self.scale = 1.0 / max(float(np.linalg.norm(high - low)), np.finfo(float).tiny)
         self._scene = rtcore_scene.EmbreeScene()
         TriangleMesh(self._scene, self.to_unit(corners.reshape(-1, 3)).reshape(-1, 3, 3))
+        # Embree builds its BVH on the first query, holding the GIL: do it now, while the bake
+        # says it is preparing rays, rather than inside the first block of work
+        self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
         self.rays_cast = 0
         self._count_lock = threading.Lock()
 
@@ -55,10 +58,12 @@ class Visibility:
             blocked[test] = self._run(starts[test], directions[test], reach[test], "OCCLUDED") != -1
         return blocked
 
-    def nearest(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    def nearest(self, origins: np.ndarray, directions: np.ndarray, lift: np.ndarray) -> np.ndarray:
         """(n,) int: index of the first triangle along each ray (unit ``directions``), -1 for a
-        miss; hits within RAY_EPSILON of the origin are ignored."""
-        start = (origins - self.center) * self.scale + RAY_EPSILON * directions
+        miss. Rays start RAY_EPSILON off the surface they leave (along its unit normals
+        ``lift``, (n, 3)) and RAY_EPSILON along their direction, so a ray nearly parallel to
+        that surface does not hit it through float32 rounding."""
+        start = (origins - self.center) * self.scale + RAY_EPSILON * (directions + lift)
         return self._run(start, directions, None, "INTERSECT")
 
     def _run(self, origins, directions, reach, query) -> np.ndarray:

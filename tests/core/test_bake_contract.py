@@ -94,7 +94,7 @@ def test_two_sided_surfaces_light_both_sides():
         if two_sided:
             np.testing.assert_allclose(below, above, rtol=1e-9)
         else:
-            assert below < 1e-12 * above  # the ambient term spreads the last unshot light everywhere
+            assert below < 1e-12 * above  # unlit; at most the ambient term's share of the last unshot light
 
 
 class Recorder:
