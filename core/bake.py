@@ -96,7 +96,7 @@ def bake(
 
     stages.stage("discretising", 0.0, 0.02)
     patch_size = settings.patch_size if settings.patch_size is not None else scene.extent / AUTO_PATCH_DIVISIONS
-    mesh = discretize(scene, patch_size, math.radians(settings.crease_angle))
+    mesh = discretize(scene, patch_size, math.radians(settings.crease_angle), stages.report)
     channels = 1 if scene.is_grey else 3
     seconds["discretise"], clock = _lap(clock)
 

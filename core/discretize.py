@@ -11,6 +11,7 @@ than the crease angle, so colour may jump at creases and material borders.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -69,9 +70,11 @@ class Discretization:
         return len(self.node_points)
 
 
-def discretize(scene: Scene, patch_size: float | None = None, crease_angle: float = np.radians(30)) -> Discretization:
+def discretize(scene: Scene, patch_size: float | None = None, crease_angle: float = np.radians(30),
+               report: Callable[[float], None] = lambda _fraction: None) -> Discretization:
     """Split ``scene`` into patches no longer than ``patch_size`` (None: one patch per triangle)
-    and group triangle corners into receiver nodes (``crease_angle`` in radians)."""
+    and group triangle corners into receiver nodes (``crease_angle`` in radians); ``report``
+    hears the fraction done between steps."""
     corners = triangle_corners(scene.vertices, scene.triangles)
     areas, normals = areas_and_normals(corners)
     degenerate = areas <= DEGENERATE_AREA_RATIO * longest_edges(corners) ** 2
@@ -79,6 +82,7 @@ def discretize(scene: Scene, patch_size: float | None = None, crease_angle: floa
         raise ValueError("every triangle of the scene has zero area: there is nothing to light")
     divisions = _divisions(corners, degenerate, patch_size)
     front = _split_triangles(corners, divisions)
+    report(0.3)
     patch_triangle = front["triangle"]
     sides = [front["corners"]]
     back_of_front = np.full(len(patch_triangle), -1, dtype=np.int64)
@@ -89,7 +93,8 @@ def discretize(scene: Scene, patch_size: float | None = None, crease_angle: floa
         patch_triangle = np.concatenate([patch_triangle, patch_triangle[back]])
     patch_corners = np.concatenate(sides)
     patch_areas, patch_normals = areas_and_normals(patch_corners)
-    nodes = _receiver_nodes(scene, corners, areas, normals, degenerate, crease_angle)
+    report(0.4)
+    nodes = _receiver_nodes(scene, corners, areas, normals, degenerate, crease_angle, report)
     return Discretization(
         patch_corners=patch_corners,
         patch_areas=patch_areas,
@@ -135,10 +140,12 @@ def _split_triangles(corners: np.ndarray, divisions: np.ndarray) -> dict[str, np
     return {"corners": np.concatenate(parts)[order], "triangle": np.concatenate(parents)[order]}
 
 
-def _receiver_nodes(scene, corners, areas, normals, degenerate, crease_angle) -> dict[str, np.ndarray]:
+def _receiver_nodes(scene, corners, areas, normals, degenerate, crease_angle, report) -> dict[str, np.ndarray]:
     triangle_count = len(corners)
     weld = _weld(scene, corners)  # (T, 3) welded vertex id per corner
+    report(0.6)
     labels = _smoothing_groups(weld, scene.material, normals, degenerate, crease_angle)
+    report(0.8)
     valid = ~degenerate
     valid_corners = np.flatnonzero(np.repeat(valid, 3))
     group_ids, corner_group = np.unique(labels.ravel()[valid_corners], return_inverse=True)

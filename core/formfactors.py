@@ -58,15 +58,16 @@ class FormFactorEngine:
         return self.visibility.rays_cast
 
     def working_bytes(self) -> int:
-        """Estimated peak of the temporary arrays of the blocks in flight (one per thread, and
-        one waiting): per ray-cast pair about 200 bytes plus 32 per ray, per hemicube ray about
+        """Estimated peak of the ray-cast sample points and of the temporary arrays of the blocks
+        in flight (one per thread, and one waiting): per ray-cast pair about 200 bytes plus 32 per ray, per hemicube ray about
         100 bytes plus the block's dense rows (upper bounds, from tracemalloc on the Cornell
         box)."""
         in_flight = parallel.THREADS + 1
         if self.method == "hemicube":
             rows = self._rows_per_block(0)
             return in_flight * (rows * len(hemicube.pixels(self.resolution)[1]) * 100 + rows * self.mesh.patch_count * 16)
-        return in_flight * self._pairs_per_block() * (200 + 32 * self.raycaster.rays)
+        samples = self.raycaster.sample_bytes  # kept for the whole bake
+        return samples + in_flight * self._pairs_per_block() * (200 + 32 * self.raycaster.rays)
 
     def _pairs_per_block(self) -> int:
         return max(1, min(PAIRS_PER_BLOCK, RAYS_PER_BLOCK // self.raycaster.rays))

@@ -62,6 +62,10 @@ class RayCaster:
         # disc term A / (pi S) of the weight, in the unit space of the visibility module
         self._unit_disc = (patch_areas * visibility.scale**2 / (np.pi * rays)).astype(np.float32)
 
+    @property
+    def sample_bytes(self) -> int:
+        return self._unit_samples.nbytes
+
     def form_factors(self, points: np.ndarray, normals: np.ndarray, receivers: np.ndarray,
                      sources: np.ndarray) -> np.ndarray:
         """(n,) form factors from points[receivers] (facing normals[receivers]) to patches
