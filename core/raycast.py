@@ -84,14 +84,15 @@ class RayCaster:
         cos_source = (offset @ self._unit_normals[sources][:, :, None])[..., 0]  # times -distance
         weight = np.maximum(cos_receiver, 0) * np.maximum(-cos_source, 0)
         weight /= distance2 * (distance2 + self._unit_disc[sources][:, None])
-        weight[weight.sum(axis=1) <= 0] = 1.0
+        weight_sum = weight.sum(axis=1)
+        weight[weight_sum <= 0] = 1.0  # no sample above both horizons: count them all alike
+        weight_sum[weight_sum <= 0] = self.rays
         # stop RAY_EPSILON short of the source's plane, measured across it: a grazing ray then
         # cannot hit its own source through the rounding of the sample onto float32
         reach = 1 - RAY_EPSILON / np.maximum(-cos_source, np.finfo(np.float32).tiny)
         blocked = self.visibility.occluded_unit(
             np.repeat(origin, self.rays, axis=0), offset.reshape(-1, 3), reach.reshape(-1)
         ).reshape(weight.shape)
-        weight_sum = weight.sum(axis=1)
         weight[blocked] = 0
         unoccluded[lit] *= weight.sum(axis=1) / weight_sum
         return unoccluded

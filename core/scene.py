@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -103,7 +104,7 @@ class Scene:
             value.setflags(write=False)
             object.__setattr__(self, name, value)
 
-    @property
+    @cached_property
     def extent(self) -> float:
         """Length of the bounding-box diagonal of the triangles' vertices."""
         used = self.vertices[self.triangles.ravel()]
