@@ -174,14 +174,14 @@ def _segment_rays(mesh: Discretization, visibility: Visibility, rng: np.random.G
 
 
 def _hemisphere_rays(mesh: Discretization, rng: np.random.Generator):
-    """(origins, directions) in world space, RAW_RAYS of them: from a random point on a random
-    patch, uniformly into the hemisphere above it (as a hemicube looks out of a patch)."""
+    """(origins, directions, normals) in world space, RAW_RAYS of them: from a random point on a
+    random patch, uniformly into the hemisphere above it (as a hemicube looks out of a patch)."""
     patches = rng.integers(0, mesh.front_patch_count, RAW_RAYS)
     origins = _random_points(mesh.patch_corners[patches], rng)
     directions = rng.normal(size=(RAW_RAYS, 3))
     directions /= np.linalg.norm(directions, axis=1, keepdims=True)
     directions *= np.sign(np.einsum("nx,nx->n", directions, mesh.patch_normals[patches]))[:, None]
-    return origins, directions
+    return origins, directions, mesh.patch_normals[patches]
 
 
 def _random_points(corners: np.ndarray, rng: np.random.Generator) -> np.ndarray:
