@@ -104,8 +104,11 @@ def bake(
     engine = FormFactorEngine(mesh, method, settings.hemicube_resolution, settings.rays_per_form_factor, settings.seed)
     seconds["setup"], clock = _lap(clock)
 
-    solve = _solve_progressive if solver == "progressive" else _solve_explicit
-    radiosity, node_radiosity, solve_stats, extra_bytes = solve(engine, solver, settings, channels, stages, seconds)
+    if solver == "progressive":
+        solved = _solve_progressive(engine, settings, channels, stages, seconds)
+    else:
+        solved = _solve_explicit(engine, solver, settings, channels, stages, seconds)
+    radiosity, node_radiosity, solve_stats, extra_bytes = solved
     if node_radiosity is None:
         clock = time.perf_counter()
         stages.stage("gathering at vertices", 0.85, 1.0)
@@ -134,8 +137,8 @@ def bake(
     return BakeResult(corner_colors, triangle_radiosity, stats)
 
 
-def _solve_progressive(engine: FormFactorEngine, _solver, settings: BakeSettings, channels: int,
-                       stages: Progress, seconds: dict):
+def _solve_progressive(engine: FormFactorEngine, settings: BakeSettings, channels: int, stages: Progress,
+                       seconds: dict):
     """Shoot; ray casting's shots reach the nodes too, the hemicube's are gathered after."""
     mesh, clock = engine.mesh, time.perf_counter()
     nodes_receive = engine.method == "raycast"

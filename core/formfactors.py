@@ -3,6 +3,7 @@ blocks sized to a ray budget so that memory stays bounded and progress is report
 
 from __future__ import annotations
 
+from functools import cached_property
 from typing import Callable
 
 import numpy as np
@@ -53,15 +54,22 @@ class FormFactorEngine:
             mesh.patch_corners, mesh.patch_normals, mesh.patch_areas, self.visibility, rays_per_form_factor, seed
         )
 
+    @cached_property
+    def _shot_receivers(self) -> tuple[np.ndarray, np.ndarray]:
+        """Points and normals (P + N, 3) of everything a ray-cast shot reaches: patches, nodes."""
+        mesh = self.mesh
+        return (np.concatenate([mesh.patch_centroids, mesh.node_points]),
+                np.concatenate([mesh.patch_normals, mesh.node_normals]))
+
     @property
     def rays_cast(self) -> int:
         return self.visibility.rays_cast
 
     def working_bytes(self) -> int:
         """Estimated peak of the ray-cast sample points and of the temporary arrays of the blocks
-        in flight (one per thread, and one waiting): per ray-cast pair about 200 bytes plus 32 per ray, per hemicube ray about
-        100 bytes plus the block's dense rows (upper bounds, from tracemalloc on the Cornell
-        box)."""
+        in flight (one per thread, and one waiting): per ray-cast pair about 200 bytes plus 32
+        per ray, per hemicube ray about 100 bytes plus the block's dense rows (upper bounds,
+        from tracemalloc on the Cornell box)."""
         in_flight = parallel.THREADS + 1
         if self.method == "hemicube":
             rows = self._rows_per_block(0)
@@ -123,8 +131,7 @@ class FormFactorEngine:
             columns = np.divide(rows.T * mesh.patch_areas[sources], mesh.patch_areas[:, None],
                                 out=np.zeros((mesh.patch_count, len(sources))), where=mesh.patch_areas[:, None] > 0)
             return columns, rows.sum(axis=1)
-        points = np.concatenate([mesh.patch_centroids, mesh.node_points])
-        normals = np.concatenate([mesh.patch_normals, mesh.node_normals])
+        points, normals = self._shot_receivers
         pieces = max(parallel.THREADS, -(-len(points) * len(sources) // self._pairs_per_block()))
         chunks = np.array_split(np.arange(len(points)), min(pieces, len(points)))
 

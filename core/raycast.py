@@ -53,7 +53,6 @@ class RayCaster:
 
     def __init__(self, patch_corners, patch_normals, patch_areas, visibility: Visibility, rays: int, seed: int):
         self.corners = patch_corners
-        self.normals = patch_normals
         self.visibility = visibility
         self.rays = rays
         unit_corners = (patch_corners - visibility.center) * visibility.scale

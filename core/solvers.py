@@ -64,9 +64,8 @@ def progressive(
     1988): rho_r * c (sum A U / sum A) / (1 - c rho_mean), where c is the share of the power
     shot so far that landed on patches (as ``columns`` measures it per shooter, weighted by
     the shot's power): 1 in a closed scene, as Cohen et al. assume, and less where light
-    escapes. It restores the
-    total energy of a closed scene of uniform reflectance, and every value when the unshot
-    light is uniform. (c estimates the light already shot, so it is not used to stop: a shooter
+    escapes. It restores the total energy of a closed scene of uniform reflectance, and every
+    value when the unshot light is uniform. (c estimates the light already shot, so it is not used to stop: a shooter
     yet to shoot may reach far more.)
     Returns B of the patches (P, C), B of the passive points (N, C) and the statistics.
     """
