@@ -12,7 +12,9 @@ import numpy as np
 from . import solvers
 from .discretize import Discretization, discretize
 from .formfactors import METHODS, FormFactorEngine
+from .lights import DirectLighting
 from .progress import Progress, ProgressCallback
+from .raycast import check_ray_count
 from .scene import Scene
 
 AUTO_PATCH_DIVISIONS = 4  # default patch size: the scene's extent over this (docs/benchmarks.md)
@@ -26,7 +28,8 @@ class BakeSettings:
     crease_angle : degrees; faces meeting at a sharper angle (and always beyond 90) do not
         share a vertex colour.
     hemicube_resolution : pixels across the hemicube's top face (even).
-    rays_per_form_factor : visibility rays per point-to-patch form factor (a perfect square).
+    rays_per_form_factor : visibility rays per point-to-patch form factor (a perfect square);
+        also the shadow rays per area-light triangle and the sky directions per point.
     tolerance : stop when the estimated fraction of light not yet distributed (progressive) or
         the bound on the relative error (Jacobi, Gauss-Seidel) is below this.
     ambient : progressive only: add the ambient estimate of the light not yet shot.
@@ -59,16 +62,20 @@ class BakeSettings:
         for name in ("hemicube_resolution", "rays_per_form_factor", "max_iterations", "memory_budget", "column_cache"):
             if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 0:
                 raise ValueError(f"{name} must be a non-negative integer, got {getattr(self, name)}")
+        check_ray_count(self.rays_per_form_factor)
 
 
 @dataclass
 class BakeResult:
-    """corner_colors (T, 3, 3): RGB radiosity at each corner of each input triangle.
+    """corner_colors (T, 3, 3): RGB radiosity at each corner of each input triangle, B = E + rho G.
     triangle_radiosity (T, 3): area-weighted mean radiosity of each input triangle.
+    corner_lighting (T, 3, 3): the light arriving at each corner, G = irradiance / pi (what a
+        white surface would reflect: "lighting only", to multiply with a texture later).
     stats: what the bake measured (seconds per stage, shots or iterations, rays, ...)."""
 
     corner_colors: np.ndarray
     triangle_radiosity: np.ndarray
+    corner_lighting: np.ndarray
     stats: dict = field(default_factory=dict)
 
 
@@ -104,20 +111,34 @@ def bake(
     engine = FormFactorEngine(mesh, method, settings.hemicube_resolution, settings.rays_per_form_factor, settings.seed)
     seconds["setup"], clock = _lap(clock)
 
-    if solver == "progressive":
-        solved = _solve_progressive(engine, settings, channels, stages, seconds)
+    direct = DirectLighting(scene.lights, scene.sky, engine.visibility, settings.rays_per_form_factor, settings.seed)
+    start = 0.04
+    if not direct.empty:
+        start = 0.1
+        stages.stage("direct light", 0.04, 0.1)
+        patch_direct = direct.patch_means(mesh.patch_corners, mesh.patch_normals, lambda f: stages.report(f / 2))
+        node_direct = direct.at_points(mesh.node_points, mesh.node_normals, lambda f: stages.report(0.5 + f / 2))
+        seconds["direct_light"], clock = _lap(clock)
     else:
-        solved = _solve_explicit(engine, solver, settings, channels, stages, seconds)
-    radiosity, node_radiosity, solve_stats, extra_bytes = solved
-    if node_radiosity is None:
+        patch_direct, node_direct = np.zeros((mesh.patch_count, 3)), np.zeros((mesh.node_count, 3))
+    # lit by the lights, a patch starts out as if it emitted what it reflects of them
+    sources = mesh.patch_emission[:, :channels] + mesh.patch_reflectance[:, :channels] * patch_direct[:, :channels]
+    node_direct = node_direct[:, :channels]
+
+    if solver == "progressive":
+        solved = _solve_progressive(engine, sources, node_direct, settings, stages, start, seconds)
+    else:
+        solved = _solve_explicit(engine, sources, solver, settings, stages, start, seconds)
+    radiosity, node_lighting, solve_stats, extra_bytes = solved
+    if node_lighting is None:
         clock = time.perf_counter()
         stages.stage("gathering at vertices", 0.85, 1.0)
-        node_radiosity = mesh.node_emission[:, :channels] + mesh.node_reflectance[:, :channels] * engine.gather(
+        node_lighting = node_direct + engine.gather(
             mesh.node_points, mesh.node_normals, radiosity, lambda f: stages.report(f)
         )
         seconds["gather"], _ = _lap(clock)
     clock = time.perf_counter()
-    corner_colors, triangle_radiosity = _per_corner(scene, mesh, radiosity, node_radiosity)
+    corner_colors, triangle_radiosity, corner_lighting = _per_corner(scene, mesh, radiosity, node_lighting)
     seconds["reconstruct"], _ = _lap(clock)
     stages.report(1.0, "done", force=True)
 
@@ -127,6 +148,7 @@ def bake(
         "settings": asdict(settings) | {"patch_size": patch_size},
         "triangles": len(scene.triangles),
         "patches": mesh.patch_count,
+        "lights": len(scene.lights),
         "nodes": mesh.node_count,
         "channels": channels,
         "seconds": seconds | {"total": sum(seconds.values())},
@@ -134,30 +156,31 @@ def bake(
         "peak_memory_estimate": _base_bytes(mesh) + extra_bytes + engine.working_bytes(),
         **solve_stats,
     }
-    return BakeResult(corner_colors, triangle_radiosity, stats)
+    return BakeResult(corner_colors, triangle_radiosity, corner_lighting, stats)
 
 
-def _solve_progressive(engine: FormFactorEngine, settings: BakeSettings, channels: int, stages: Progress,
-                       seconds: dict):
-    """Shoot; ray casting's shots reach the nodes too, the hemicube's are gathered after."""
+def _solve_progressive(engine: FormFactorEngine, sources: np.ndarray, node_direct: np.ndarray,
+                       settings: BakeSettings, stages: Progress, start: float, seconds: dict):
+    """Shoot; ray casting's shots reach the nodes too (their result is the light G they
+    receive), the hemicube's are gathered after."""
     mesh, clock = engine.mesh, time.perf_counter()
     nodes_receive = engine.method == "raycast"
-    stages.stage("shooting", 0.04, 1.0 if nodes_receive else 0.85)
-    radiosity, node_radiosity, stats = solvers.progressive(
-        engine.shooting_columns, mesh.patch_areas, mesh.patch_reflectance[:, :channels],
-        mesh.patch_emission[:, :channels],
-        mesh.node_reflectance[:, :channels] if nodes_receive else None,
-        mesh.node_emission[:, :channels] if nodes_receive else None,
+    channels = sources.shape[1]
+    stages.stage("shooting", start, 1.0 if nodes_receive else 0.85)
+    radiosity, node_lighting, stats = solvers.progressive(
+        engine.shooting_columns, mesh.patch_areas, mesh.patch_reflectance[:, :channels], sources,
+        np.ones_like(node_direct) if nodes_receive else None,
+        node_direct if nodes_receive else None,
         tolerance=settings.tolerance, ambient=settings.ambient, max_shots=settings.max_shots,
         cache_bytes=settings.column_cache, report=stages.report,
     )
     seconds["solve"], _ = _lap(clock)
     cache_bytes = stats["cached_columns"] * 8 * (mesh.patch_count + mesh.node_count)
-    return radiosity, node_radiosity if nodes_receive else None, stats, cache_bytes
+    return radiosity, node_lighting if nodes_receive else None, stats, cache_bytes
 
 
-def _solve_explicit(engine: FormFactorEngine, solver: str, settings: BakeSettings, channels: int,
-                    stages: Progress, seconds: dict):
+def _solve_explicit(engine: FormFactorEngine, sources: np.ndarray, solver: str, settings: BakeSettings,
+                    stages: Progress, start: float, seconds: dict):
     """Build the P x P matrix (within the memory budget), then Jacobi or Gauss-Seidel."""
     mesh, clock = engine.mesh, time.perf_counter()
     matrix_bytes = 8 * mesh.patch_count**2
@@ -167,12 +190,12 @@ def _solve_explicit(engine: FormFactorEngine, solver: str, settings: BakeSetting
             f"({matrix_bytes / 2**30:.2f} GiB), over the memory budget of {settings.memory_budget / 2**30:.2f} GiB; "
             "use solver='progressive', a larger patch_size, or raise memory_budget"
         )
-    stages.stage("form factors", 0.04, 0.6)
+    stages.stage("form factors", start, 0.6)
     matrix = engine.patch_rows(np.arange(mesh.patch_count), lambda f: stages.report(f, "matrix"))
     seconds["form_factors"], clock = _lap(clock)
     stages.stage("solving", 0.6, 0.85)
     iterate = solvers.jacobi if solver == "jacobi" else solvers.gauss_seidel
-    radiosity, stats = iterate(matrix, mesh.patch_reflectance[:, :channels], mesh.patch_emission[:, :channels],
+    radiosity, stats = iterate(matrix, mesh.patch_reflectance[:, :sources.shape[1]], sources,
                                settings.tolerance, settings.max_iterations, stages.report)
     seconds["solve"], _ = _lap(clock)
     return radiosity, None, stats, matrix_bytes
@@ -188,15 +211,17 @@ def _base_bytes(mesh: Discretization) -> int:
     return sum(value.nbytes for value in vars(mesh).values() if isinstance(value, np.ndarray)) + 64 * mesh.patch_count
 
 
-def _per_corner(scene: Scene, mesh: Discretization, radiosity: np.ndarray, node_radiosity: np.ndarray):
-    """Corner colours from the nodes, triangle means from the front patches, RGB float64."""
+def _per_corner(scene: Scene, mesh: Discretization, radiosity: np.ndarray, node_lighting: np.ndarray):
+    """Corner colours B = E + rho G and lighting G from the nodes, triangle means from the front
+    patches; RGB float64."""
     count = len(scene.triangles)
     rgb = np.broadcast_to(radiosity, (len(radiosity), 3)) if radiosity.shape[1] == 1 else radiosity
-    nodes = np.broadcast_to(node_radiosity, (len(node_radiosity), 3)) if node_radiosity.shape[1] == 1 else node_radiosity
+    lighting = np.broadcast_to(node_lighting, (len(node_lighting), 3))
+    nodes = mesh.node_emission + mesh.node_reflectance * lighting
     corner_node = mesh.corner_node
-    corner_colors = np.where(
-        (corner_node >= 0)[..., None], nodes[np.maximum(corner_node, 0)], scene.emission[:, None, :]
-    )
+    has_node = (corner_node >= 0)[..., None]
+    corner_colors = np.where(has_node, nodes[np.maximum(corner_node, 0)], scene.emission[:, None, :])
+    corner_lighting = np.where(has_node, lighting[np.maximum(corner_node, 0)], 0.0)
     front = slice(0, mesh.front_patch_count)
     owner = mesh.patch_triangle[front]
     weights = mesh.patch_areas[front]
@@ -205,4 +230,4 @@ def _per_corner(scene: Scene, mesh: Discretization, radiosity: np.ndarray, node_
     triangle_radiosity = np.where(
         (area > 0)[:, None], sums / np.where(area > 0, area, 1.0)[:, None], corner_colors.mean(axis=1)
     )
-    return np.ascontiguousarray(corner_colors), triangle_radiosity
+    return np.ascontiguousarray(corner_colors), triangle_radiosity, np.ascontiguousarray(corner_lighting)

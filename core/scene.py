@@ -7,6 +7,8 @@ from functools import cached_property
 
 import numpy as np
 
+from .lights import check_lights
+
 
 def _first_bad(mask: np.ndarray) -> int:
     """Index of the first row where ``mask`` is True (mask reduced over trailing axes)."""
@@ -43,6 +45,10 @@ class Scene:
     two_sided : (T,) bool, optional; a two-sided triangle reflects and emits on both sides
         (as Cycles' Diffuse BSDF and Emission do); the back side is its own surface.
         Default: all one-sided.
+    lights : point, spot, sun and area lights (``core.lights``); they light the surfaces but
+        are not surfaces themselves.
+    sky : (3,) float >= 0, the colour x strength of a uniform sky around the scene (Blender's
+        world colour): it lights every surface that sees it.
     """
 
     vertices: np.ndarray
@@ -51,6 +57,8 @@ class Scene:
     emission: np.ndarray
     material: np.ndarray | None = None
     two_sided: np.ndarray | None = field(default=None)
+    lights: tuple = ()
+    sky: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         vertices = _as_float_array("vertices", self.vertices, (3,))
@@ -93,7 +101,12 @@ class Scene:
         two_sided = np.zeros(count, bool) if self.two_sided is None else np.array(self.two_sided)
         if two_sided.dtype != bool or two_sided.shape != (count,):
             raise ValueError(f"two_sided must be a bool array of shape ({count},)")
+        sky = np.zeros(3) if self.sky is None else np.array(self.sky, dtype=np.float64).reshape(-1)
+        if sky.shape != (3,) or not np.isfinite(sky).all() or (sky < 0).any():
+            raise ValueError(f"sky must be 3 finite numbers >= 0, got {self.sky!r}")
+        object.__setattr__(self, "lights", check_lights(self.lights))
         for name, value in (
+            ("sky", sky),
             ("vertices", vertices),
             ("triangles", triangles),
             ("reflectance", reflectance),
@@ -112,11 +125,10 @@ class Scene:
 
     @property
     def is_grey(self) -> bool:
-        """True when every reflectance and emission has equal R, G and B."""
-        return bool(
-            (self.reflectance == self.reflectance[:, :1]).all()
-            and (self.emission == self.emission[:, :1]).all()
-        )
+        """True when every reflectance, emission, light and the sky have equal R, G and B."""
+        colours = [self.reflectance, self.emission, self.sky[None]]
+        colours += [getattr(light, "power", getattr(light, "strength", None))[None] for light in self.lights]
+        return all(bool((colour == colour[:, :1]).all()) for colour in colours)
 
 
 def _per_triangle(name: str, value, count: int) -> np.ndarray:

@@ -1,0 +1,95 @@
+"""A bake that runs in slices, for hosts that must stay responsive (Blender's modal operators):
+``step(budget)`` lets the bake work for about ``budget`` seconds and returns.
+
+The bake runs on a worker thread that pauses at its next progress report once the slice's
+budget is spent, and waits there for the next ``step``; so the bake never runs while the host
+does, and the host sees progress, can cancel, and takes the result, all from its own thread.
+A slice ends at the first progress report after the budget (reports come every REPORT_INTERVAL
+seconds while the bake works).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+from .bake import BakeResult, bake
+from .progress import BakeCancelled
+from .scene import Scene
+
+
+class BakeJob:
+    """``bake(scene, method, solver, **knobs)`` in slices. Nothing runs until the first step."""
+
+    def __init__(self, scene: Scene, method: str = "raycast", solver: str = "progressive", **knobs) -> None:
+        self.fraction = 0.0
+        self.message = "waiting"
+        self._arguments = (scene, method, solver, knobs)
+        self._budget = 0.0
+        self._slice_start = 0.0
+        self._cancel = False
+        self._result: BakeResult | None = None
+        self._error: BaseException | None = None
+        self._finished = False
+        self._go = threading.Event()  # the host lets the worker run a slice
+        self._paused = threading.Event()  # the worker stopped: slice spent, or finished
+        self._thread = threading.Thread(target=self._work, name="radiosity-bake", daemon=True)
+
+    @property
+    def done(self) -> bool:
+        """True once the bake finished, failed or was cancelled."""
+        return self._finished
+
+    def step(self, budget: float) -> bool:
+        """Let the bake work for about ``budget`` seconds; True once it has finished (then
+        ``result()`` returns or raises)."""
+        if self.done:
+            return True
+        self._budget = budget
+        self._paused.clear()
+        self._slice_start = time.perf_counter()
+        if self._thread.ident is None:
+            self._thread.start()
+        else:
+            self._go.set()
+        self._paused.wait()
+        return self._finished
+
+    def cancel(self) -> None:
+        """Stop the bake at its next progress report and wait for it; ``result()`` then raises
+        BakeCancelled (unless it had already finished)."""
+        self._cancel = True
+        if self._thread.ident is None:
+            self._error, self._finished = BakeCancelled("cancelled before it started"), True
+            return
+        self._go.set()
+        self._thread.join()
+
+    def result(self) -> BakeResult:
+        """The finished bake's result; the bake's own exception if it failed or was cancelled."""
+        if not self.done:
+            raise RuntimeError("the bake has not finished: call step() until it returns True")
+        if self._error is not None:
+            raise self._error
+        return self._result
+
+    def _work(self) -> None:
+        scene, method, solver, knobs = self._arguments
+        try:
+            self._result = bake(scene, method, solver, progress=self._report, **knobs)
+        except BaseException as error:  # handed to the host thread by result()
+            self._error = error
+        finally:
+            self._finished = True
+            self._paused.set()
+
+    def _report(self, fraction: float, message: str) -> bool:
+        self.fraction, self.message = fraction, message
+        if not self._cancel and time.perf_counter() - self._slice_start >= self._budget:
+            self._go.clear()
+            self._paused.set()
+            self._go.wait()
+        return not self._cancel
+
+
+__all__ = ["BakeJob", "BakeCancelled"]

@@ -1,0 +1,313 @@
+"""Lights that are not surfaces (point, spot, sun, area) and light from the sky, in Blender's
+units and with Cycles' conventions, measured with Blender 5.0.1 (see shared/CYCLES.md).
+
+Each light adds to the irradiance of a surface point; this module returns it divided by pi,
+G = H / pi, so that a diffuse surface of reflectance rho shows rho * G (and the "lighting only"
+output is G itself):
+
+    point, power P (W, per channel), at distance r, angle theta:  G = P cos(theta) / (4 pi^2 r^2)
+    spot: the same times Cycles' cone mask smoothstep((cos a - cos(s/2)) / ((1 - cos(s/2)) b))
+          for the angle a off the axis, spot size s and blend b
+    sun, strength E (W/m^2):                                    G = E cos(theta) / pi
+    area light, power P over area A, one-sided:                 G = P / (pi A) * F(point -> light)
+    sky, colour C x strength k:                                  G = C k * (share of the
+          cosine-weighted hemisphere that sees no surface)
+
+Every term is times the visibility of the light from the point, by rays through ``Visibility``.
+Lights do not block or reflect light (they are not geometry), as in Cycles. Point and spot
+lights of any radius are treated as points (the radius only softens shadows: the irradiance of
+a uniformly bright sphere is that of a point of the same power), and a sun's angle likewise.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Iterable, Union
+
+import numpy as np
+
+from . import parallel
+from .geometry import areas_and_normals, tangent_frames
+from .raycast import RayCaster, stratified_samples
+from .visibility import RAY_EPSILON, Visibility
+
+# Evaluation points per block of work (each with up to a few hundred rays).
+POINTS_PER_BLOCK = 2048
+
+
+def _vector(name: str, value, nonnegative: bool = False) -> np.ndarray:
+    array = np.array(value, dtype=np.float64).reshape(-1)
+    if array.shape != (3,) or not np.isfinite(array).all():
+        raise ValueError(f"{name} must be 3 finite numbers, got {value!r}")
+    if nonnegative and (array < 0).any():
+        raise ValueError(f"{name} must not be negative, got {array.tolist()}")
+    array.setflags(write=False)
+    return array
+
+
+def _direction(name: str, value) -> np.ndarray:
+    array = np.array(_vector(name, value))
+    length = np.linalg.norm(array)
+    if length == 0:
+        raise ValueError(f"{name} must not be the zero vector")
+    array /= length
+    array.setflags(write=False)
+    return array
+
+
+@dataclass(frozen=True, eq=False)
+class PointLight:
+    """position (3,) world space; power (3,) W per channel (Blender: power x colour)."""
+
+    position: np.ndarray
+    power: np.ndarray
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "position", _vector("position", self.position))
+        object.__setattr__(self, "power", _vector("power", self.power, nonnegative=True))
+
+
+@dataclass(frozen=True, eq=False)
+class SpotLight:
+    """A point light shining into a cone: direction (3,) its axis; spot_size the cone's full
+    angle in radians, (0, pi]; spot_blend in [0, 1] the soft share of the edge."""
+
+    position: np.ndarray
+    direction: np.ndarray
+    power: np.ndarray
+    spot_size: float
+    spot_blend: float = 0.15
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "position", _vector("position", self.position))
+        object.__setattr__(self, "direction", _direction("direction", self.direction))
+        object.__setattr__(self, "power", _vector("power", self.power, nonnegative=True))
+        if not 0 < self.spot_size <= math.pi:
+            raise ValueError(f"spot_size must be in (0, pi] radians, got {self.spot_size}")
+        if not 0 <= self.spot_blend <= 1:
+            raise ValueError(f"spot_blend must be in [0, 1], got {self.spot_blend}")
+
+    def cone_mask(self, towards_points: np.ndarray) -> np.ndarray:
+        """(n,) Cycles' spot attenuation for unit vectors (n, 3) from the light to the points."""
+        cos_half = math.cos(self.spot_size / 2)
+        cosine = towards_points @ self.direction
+        smooth = (1 - cos_half) * self.spot_blend
+        if smooth <= 0:
+            return (cosine > cos_half).astype(np.float64)
+        t = np.clip((cosine - cos_half) / smooth, 0.0, 1.0)
+        return t * t * (3 - 2 * t)
+
+
+@dataclass(frozen=True, eq=False)
+class SunLight:
+    """direction (3,) the way the light travels; strength (3,) W/m^2 per channel (Blender:
+    strength x colour), the irradiance of a surface facing the sun."""
+
+    direction: np.ndarray
+    strength: np.ndarray
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "direction", _direction("direction", self.direction))
+        object.__setattr__(self, "strength", _vector("strength", self.strength, nonnegative=True))
+
+
+@dataclass(frozen=True, eq=False)
+class AreaLight:
+    """A flat emitter shining from the front of its triangles (K, 3, 3) (right-hand rule);
+    power (3,) W per channel over their total area A: radiance P / (pi A)."""
+
+    triangles: np.ndarray
+    power: np.ndarray
+
+    def __post_init__(self) -> None:
+        triangles = np.array(self.triangles, dtype=np.float64)
+        if triangles.ndim != 3 or triangles.shape[1:] != (3, 3) or len(triangles) == 0:
+            raise ValueError(f"triangles must have shape (K, 3, 3) with K >= 1, got {triangles.shape}")
+        if not np.isfinite(triangles).all():
+            raise ValueError("triangles must be finite")
+        if areas_and_normals(triangles)[0].sum() <= 0:
+            raise ValueError("an area light must have a positive area")
+        triangles.setflags(write=False)
+        object.__setattr__(self, "triangles", triangles)
+        object.__setattr__(self, "power", _vector("power", self.power, nonnegative=True))
+
+    @property
+    def radiance(self) -> np.ndarray:
+        """(3,) P / (pi A)."""
+        return self.power / (math.pi * areas_and_normals(self.triangles)[0].sum())
+
+
+# Sides of the polygon that stands for a disk or ellipse light (same area as the ellipse): its
+# form factors differ from the ellipse's by O(1/n^2) near the rim, 0.2% at 32 (tests/core/test_lights.py).
+ELLIPSE_SEGMENTS = 32
+AREA_SHAPES = ("SQUARE", "RECTANGLE", "DISK", "ELLIPSE")
+
+
+def area_light(shape: str, size: float, size_y: float, matrix: np.ndarray, power) -> AreaLight:
+    """The AreaLight of a Blender area light: ``shape`` one of AREA_SHAPES, ``size`` (and
+    ``size_y`` for RECTANGLE and ELLIPSE) its widths in its local XY plane, shining down its
+    local -Z axis; ``matrix`` (4, 4) local to world (scale included)."""
+    if shape not in AREA_SHAPES:
+        raise ValueError(f"area light shape must be one of {AREA_SHAPES}, got {shape!r}")
+    width = size
+    height = size if shape in ("SQUARE", "DISK") else size_y
+    if not (width > 0 and height > 0):
+        raise ValueError(f"an area light needs positive sizes, got {width} x {height}")
+    if shape in ("SQUARE", "RECTANGLE"):
+        outline = np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]]) / 2  # clockwise from +Z
+    else:
+        n = ELLIPSE_SEGMENTS
+        angle = -2 * np.pi * np.arange(n) / n
+        stretch = np.sqrt(2 * np.pi / (n * np.sin(2 * np.pi / n)))  # same area as the ellipse
+        outline = stretch * np.stack([np.cos(angle), np.sin(angle)], axis=1) / 2
+    matrix = np.asarray(matrix, dtype=np.float64)
+    local = np.column_stack([outline * [width, height], np.zeros(len(outline)), np.ones(len(outline))])
+    world = (local @ matrix.T)[:, :3]
+    fan = np.stack([np.zeros(len(world) - 2, int), np.arange(1, len(world) - 1), np.arange(2, len(world))], axis=1)
+    triangles = world[fan]
+    # a mirroring matrix keeps the winding but turns local -Z around: face where -Z points
+    if np.cross(triangles[0, 1] - triangles[0, 0], triangles[0, 2] - triangles[0, 0]) @ matrix[:3, 2] > 0:
+        triangles = triangles[:, ::-1]
+    return AreaLight(triangles, power)
+
+
+Light = Union[PointLight, SpotLight, SunLight, AreaLight]
+LIGHT_TYPES = (PointLight, SpotLight, SunLight, AreaLight)
+
+
+def check_lights(lights: Iterable) -> tuple:
+    """The lights as a tuple; TypeError naming the first item that is not a light."""
+    lights = tuple(lights)
+    for index, light in enumerate(lights):
+        if not isinstance(light, LIGHT_TYPES):
+            raise TypeError(f"lights[{index}] is a {type(light).__name__}, not one of "
+                            f"{', '.join(t.__name__ for t in LIGHT_TYPES)}")
+    return lights
+
+
+class DirectLighting:
+    """G = H / pi from the lights and the sky at points, with shadows by rays.
+
+    rays : light samples per area light triangle and sky directions per point (as the bake's
+        rays per form factor); seed fixes them.
+    """
+
+    def __init__(self, lights: tuple, sky: np.ndarray, visibility: Visibility, rays: int, seed: int) -> None:
+        self.lights = lights
+        self.sky = np.asarray(sky, dtype=np.float64)
+        self.visibility = visibility
+        self.rays = rays
+        self.seed = seed
+        self._area = []
+        for index, light in enumerate(lights):
+            if isinstance(light, AreaLight):
+                areas, normals = areas_and_normals(light.triangles)
+                caster = RayCaster(light.triangles, normals, areas, visibility, rays, seed + 1 + index)
+                self._area.append((light, caster))
+
+    @property
+    def empty(self) -> bool:
+        return not self.lights and not self.sky.any()
+
+    def at_points(self, points: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
+        """(m, 3) G at points (m, 3) facing unit normals (m, 3)."""
+        if self.empty:
+            return np.zeros((len(points), 3))
+        return self._in_blocks(points, normals, self._point_block, report)
+
+    def patch_means(self, corners: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
+        """(P, 3) G over patches (P, 3, 3): the mean over ``rays`` stratified points of each
+        patch for point, spot and sun lights (their shadows are sharp); at the centroid for area
+        lights and the sky, whose light changes smoothly."""
+        if self.empty:
+            return np.zeros((len(corners), 3))
+        return self._in_blocks(corners, normals, self._patch_block, report)
+
+    def _in_blocks(self, items, normals, block, report) -> np.ndarray:
+        starts = range(0, len(items), POINTS_PER_BLOCK)
+        parts = []
+        for done, part in enumerate(parallel.map_ordered(
+                lambda s: block(items[s: s + POINTS_PER_BLOCK], normals[s: s + POINTS_PER_BLOCK], s), starts), 1):
+            parts.append(part)
+            report(done / len(starts))
+        return np.concatenate(parts) if parts else np.zeros((0, 3))
+
+    def _point_block(self, points, normals, first) -> np.ndarray:
+        return self._sharp(points, normals) + self._smooth(points, normals, first)
+
+    def _patch_block(self, corners, normals, first) -> np.ndarray:
+        samples = stratified_samples(corners, self.rays, self.seed + first)  # (k, S, 3)
+        sharp = self._sharp(samples.reshape(-1, 3), np.repeat(normals, self.rays, axis=0))
+        return sharp.reshape(len(corners), self.rays, 3).mean(axis=1) + self._smooth(
+            corners.mean(axis=1), normals, first)
+
+    def _sharp(self, points, normals) -> np.ndarray:
+        """Point, spot and sun lights at points, one shadow ray each."""
+        result = np.zeros((len(points), 3))
+        for light in self.lights:
+            if isinstance(light, SunLight):
+                cosine = -(normals @ light.direction)
+                lit = np.flatnonzero(cosine > 0)
+                towards = np.broadcast_to(-light.direction, (len(lit), 3))
+                seen = ~self._blocked(points[lit], normals[lit], towards, None)
+                result[lit] += (cosine[lit] * seen)[:, None] * light.strength / math.pi
+            elif isinstance(light, (PointLight, SpotLight)):
+                offset = light.position - points
+                distance = np.linalg.norm(offset, axis=1)
+                towards = offset / np.maximum(distance, np.finfo(float).tiny)[:, None]
+                strength = np.maximum((normals * towards).sum(axis=1), 0.0) / (distance * distance)
+                if isinstance(light, SpotLight):
+                    strength *= light.cone_mask(-towards)
+                lit = np.flatnonzero(strength > 0)
+                seen = ~self._blocked(points[lit], normals[lit], offset[lit], np.ones(len(lit)))
+                result[lit] += (strength[lit] * seen)[:, None] * light.power / (4 * math.pi**2)
+        return result
+
+    def _smooth(self, points, normals, first) -> np.ndarray:
+        """Area lights (kernel-weighted shadow rays to stratified samples) and the sky."""
+        result = np.zeros((len(points), 3))
+        count = len(points)
+        for light, caster in self._area:
+            sources = len(light.triangles)
+            factors = caster.form_factors(points, normals, np.repeat(np.arange(count), sources),
+                                          np.tile(np.arange(sources), count))
+            result += factors.reshape(count, sources).sum(axis=1)[:, None] * light.radiance
+        if self.sky.any():
+            result += self._open_sky(points, normals, first)[:, None] * self.sky
+        return result
+
+    def _open_sky(self, points, normals, first) -> np.ndarray:
+        """(m,) share of the cosine-weighted hemisphere that sees no surface: ``rays``
+        stratified directions by Malley's method (uniform on the disc, lifted to the
+        hemisphere), each point's strata rotated at random (Cranley-Patterson)."""
+        count, rays = len(points), self.rays
+        side = int(round(math.sqrt(rays)))
+        grid = (np.stack(np.meshgrid(np.arange(side), np.arange(side)), axis=-1).reshape(-1, 2) + 0.5) / side
+        rotation = np.random.default_rng([self.seed, first]).random((count, 1, 2))
+        u, v = np.moveaxis((grid[None] + rotation) % 1.0, -1, 0)  # (m, S) each
+        radius, angle = np.sqrt(u), 2 * math.pi * v
+        tangent, bitangent = tangent_frames(normals)
+        directions = ((radius * np.cos(angle))[..., None] * tangent[:, None]
+                      + (radius * np.sin(angle))[..., None] * bitangent[:, None]
+                      + np.sqrt(1 - u)[..., None] * normals[:, None])  # (m, S, 3)
+        blocked = self._blocked(np.repeat(points, rays, axis=0), np.repeat(normals, rays, axis=0),
+                                directions.reshape(-1, 3), None)
+        return 1.0 - blocked.reshape(count, rays).mean(axis=1)
+
+    def _blocked(self, points, normals, offsets, reach) -> np.ndarray:
+        """(n,) whether a surface lies between points (lifted RAY_EPSILON off their surface)
+        and points + reach * offsets (world-space vectors); reach None: to infinity."""
+        if len(points) == 0:
+            return np.zeros(0, dtype=bool)
+        visibility = self.visibility
+        directions = offsets * visibility.scale
+        starts = visibility.to_unit(points) + RAY_EPSILON * normals
+        if reach is None:
+            # beyond the scene: every surface is within 1 of the unit space's centre
+            directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+            reach = np.linalg.norm(starts, axis=1) + 2.0
+        else:
+            # stop RAY_EPSILON short of the light, along the ray
+            reach = reach - RAY_EPSILON / np.maximum(np.linalg.norm(directions, axis=1), np.finfo(float).tiny)
+        return visibility.occluded_unit(starts, directions.astype(np.float32), reach)

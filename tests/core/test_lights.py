@@ -1,0 +1,218 @@
+"""Point, spot, sun and area lights and the sky against Cycles' conventions (shared/CYCLES.md,
+measured with Blender 5.0.1) and closed forms, on scenes where the exact answer is known:
+
+    point   rho * P cos / (4 pi^2 r^2)       sun    rho * E cos / pi
+    spot    the same times Cycles' cone mask  area   rho * P / (pi A) * F(point -> light)
+    sky     rho * C k * (1 - F(point -> what blocks the sky))
+
+Colours are read at the receiver nodes, which sit NODE_INSET (1e-3) of the way from each vertex
+towards its faces' centre: on these grids that moves a node by under 1e-3 of a cell, so values
+at the vertex are matched to 2e-3 relative unless stated.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from core import Scene, bake
+from core.analytic import point_to_triangle
+from core.lights import AreaLight, PointLight, SpotLight, SunLight, area_light
+from tests.core.scenes import box, merge, quad
+from tests.core.test_form_factor_closed_forms import b3_anywhere, b12
+
+RHO = 0.5
+NODE_RTOL = 2e-3
+
+
+def grid(corner, u, v, cells: int) -> tuple[np.ndarray, np.ndarray]:
+    """A parallelogram corner + [0,1] u + [0,1] v split into cells x cells quads, facing u x v."""
+    parts = [quad(np.add(corner, np.multiply(u, i / cells)) + np.multiply(v, j / cells),
+                  np.divide(u, cells), np.divide(v, cells))
+             for i in range(cells) for j in range(cells)]
+    return merge(*parts)
+
+
+def floor_scene(reflectance=RHO, cells=8, size=4.0, **extra) -> Scene:
+    """A one-sided floor [-size/2, size/2]^2 at z = 0 facing +z: it cannot see itself, so it
+    shows direct light only."""
+    vertices, triangles = grid([-size / 2, -size / 2, 0], [size, 0, 0], [0, size, 0], cells)
+    count = len(triangles)
+    return Scene(vertices, triangles, np.full((count, 3), reflectance), np.zeros((count, 3)), **extra)
+
+
+def vertex_values(scene: Scene, corner_values: np.ndarray, triangles: int | None = None):
+    """Positions (k, 3) and values (k, 3) of the corners of the first ``triangles`` triangles."""
+    return (scene.vertices[scene.triangles[:triangles]].reshape(-1, 3),
+            corner_values[:triangles].reshape(-1, 3))
+
+
+def test_point_light_matches_cycles_inverse_square_law():
+    light = PointLight([0.3, -0.2, 1.5], [100.0, 50.0, 20.0])
+    scene = floor_scene(lights=[light])
+    points, colours = vertex_values(scene, bake(scene).corner_colors)
+    offset = light.position - points
+    r2 = (offset**2).sum(axis=1)
+    cosine = offset[:, 2] / np.sqrt(r2)
+    expected = RHO * light.power * (cosine / (4 * math.pi**2 * r2))[:, None]
+    np.testing.assert_allclose(colours, expected, rtol=NODE_RTOL)
+
+
+def test_lighting_only_is_irradiance_over_pi_even_on_black_surfaces():
+    light = PointLight([0.0, 0.0, 1.0], [40.0, 40.0, 40.0])
+    scene = floor_scene(reflectance=0.0, lights=[light])
+    result = bake(scene)
+    points, lighting = vertex_values(scene, result.corner_lighting)
+    r2 = ((light.position - points) ** 2).sum(axis=1)
+    expected = 40.0 * (1.0 / np.sqrt(r2)) / (4 * math.pi**2 * r2)
+    np.testing.assert_allclose(lighting[:, 0], expected, rtol=NODE_RTOL)
+    assert np.all(result.corner_colors == 0)
+
+
+def cycles_spot_mask(cos_angle, spot_size, blend):
+    """Cycles' spot attenuation (intern/cycles/kernel/light/spot.h): smoothstep(0, 1, t) for
+    t = (cos a - cos(s/2)) / ((1 - cos(s/2)) * blend)."""
+    cos_half = math.cos(spot_size / 2)
+    t = np.clip((cos_angle - cos_half) / ((1 - cos_half) * blend), 0, 1)
+    return t * t * (3 - 2 * t)
+
+
+def test_spot_light_is_a_point_light_inside_its_cone_and_dark_outside():
+    spot = SpotLight([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [200.0] * 3, spot_size=math.radians(90), spot_blend=0.3)
+    scene = floor_scene(cells=16, lights=[spot])
+    points, colours = vertex_values(scene, bake(scene).corner_colors)
+    offset = spot.position - points
+    distance = np.linalg.norm(offset, axis=1)
+    cosine = offset[:, 2] / distance  # also the cosine off the spot's axis
+    mask = cycles_spot_mask(cosine, spot.spot_size, spot.spot_blend)
+    expected = RHO * 200.0 * mask * cosine / (4 * math.pi**2 * distance**2)
+    assert (mask == 1).sum() > 20 and (mask == 0).sum() > 20 and ((mask > 0) & (mask < 1)).sum() > 20
+    # the mask's slope is steep in the blend zone: compare with an absolute bound there, from the
+    # node's 1e-3-of-a-cell inset times the largest slope of value over position (~ 10 / m)
+    np.testing.assert_allclose(colours[:, 0], expected, rtol=NODE_RTOL, atol=1e-4)
+
+
+def test_sun_lights_by_its_cosine_and_casts_a_sharp_shadow():
+    direction = np.array([0.3, 0.0, -1.0])
+    blocker = quad([-0.5, -0.5, 1.0], [0, 1, 0], [1, 0, 0])  # a black plate above the origin, facing down
+    floor = grid([-2, -2, 0], [4, 0, 0], [0, 4, 0], 8)
+    vertices, triangles = merge(floor, blocker)
+    reflectance = np.full((len(triangles), 3), RHO)
+    reflectance[-2:] = 0.0
+    sun = SunLight(direction, [3.0, 3.0, 3.0])
+    scene = Scene(vertices, triangles, reflectance, np.zeros_like(reflectance), lights=[sun])
+    points, colours = vertex_values(scene, bake(scene, tolerance=1e-6).corner_colors, -2)
+    cosine = 1 / np.linalg.norm(direction)
+    # the shadow is the plate moved along the light by its height: x + 0.3, y in [-0.5, 0.5]
+    in_shadow = (np.abs(points[:, 0] - 0.3) < 0.49) & (np.abs(points[:, 1]) < 0.49)
+    lit = (np.abs(points[:, 0] - 0.3) > 0.51) | (np.abs(points[:, 1]) > 0.51)
+    assert in_shadow.sum() >= 4 and lit.sum() > 50
+    np.testing.assert_allclose(colours[lit], RHO * 3.0 * cosine / math.pi, rtol=1e-12)
+    assert np.all(colours[in_shadow] == 0)
+
+
+@pytest.mark.parametrize("shape", ["SQUARE", "RECTANGLE"])
+def test_rectangular_area_light_gives_radiance_times_b3(shape):
+    size_x, size_y, height = 1.0, 1.0 if shape == "SQUARE" else 0.5, 1.2
+    matrix = np.eye(4)
+    matrix[:3, 3] = [0.2, 0.1, height]
+    light = area_light(shape, size_x, size_y, matrix, [30.0, 30.0, 30.0])
+    scene = floor_scene(lights=[light])
+    points, colours = vertex_values(scene, bake(scene).corner_colors)
+    radiance = 30.0 / (math.pi * size_x * size_y)
+    factors = np.array([b3_anywhere(x, y, 0.2 - size_x / 2, 0.2 + size_x / 2, 0.1 - size_y / 2, 0.1 + size_y / 2,
+                                    height) for x, y, _ in points])
+    np.testing.assert_allclose(colours[:, 0], RHO * radiance * factors, rtol=NODE_RTOL)
+
+
+def test_disk_area_light_gives_radiance_times_b12_on_its_axis():
+    radius, height = 0.5, 0.8
+    matrix = np.diag([1.0, 1.0, 1.0, 1.0])
+    matrix[:3, 3] = [0.0, 0.0, height]
+    light = area_light("DISK", 2 * radius, 0.0, matrix, [10.0, 10.0, 10.0])
+    scene = floor_scene(lights=[light])
+    points, colours = vertex_values(scene, bake(scene).corner_colors)
+    centre = np.flatnonzero(np.linalg.norm(points, axis=1) < 1e-9)
+    radiance = 10.0 / (math.pi * math.pi * radius**2)
+    # the light is a 32-gon of the disk's area: 0.2% off the disk's B-12 on its axis
+    np.testing.assert_allclose(colours[centre, 0], RHO * radiance * b12(radius, height), rtol=2e-3)
+
+
+def test_area_light_shines_from_its_front_only():
+    matrix = np.diag([1.0, 1.0, -1.0, 1.0])  # local -Z now points up: the light faces away
+    matrix[2, 3] = 1.0
+    scene = floor_scene(lights=[area_light("SQUARE", 1.0, 0.0, matrix, [10.0] * 3)])
+    assert np.all(bake(scene).corner_colors == 0)
+
+
+def test_sky_lights_an_open_floor_by_its_colour():
+    sky = np.array([0.2, 0.4, 0.8])
+    scene = floor_scene(sky=sky)
+    np.testing.assert_allclose(bake(scene).corner_colors.reshape(-1, 3), np.tile(RHO * sky, (scene.triangles.size, 1)),
+                               rtol=1e-12)
+
+
+def test_sky_is_blocked_by_a_wall_as_its_form_factor_says():
+    """Floor nodes along the foot of a black wall see the sky except where the wall is:
+    rho * C k * (1 - F(node -> wall)), F by the exact contour formula."""
+    wall = quad([-2, 0, 0], [4, 0, 0], [0, 0, 1.5])  # the plane y = 0, 4 m long and 1.5 m high, facing -y
+    floor = grid([-2, -2, 0], [4, 0, 0], [0, 2, 0], 8)  # y in [-2, 0]
+    vertices, triangles = merge(floor, wall)
+    reflectance = np.full((len(triangles), 3), RHO)
+    reflectance[-2:] = 0.0
+    scene = Scene(vertices, triangles, reflectance, np.zeros_like(reflectance), sky=[1.0, 1.0, 1.0])
+    result = bake(scene, rays_per_form_factor=256, tolerance=1e-6)
+    points, colours = vertex_values(scene, result.corner_colors, -2)
+    near = np.abs(points[:, 1] + 0.5) < 1e-9  # the row of nodes 0.5 m from the wall
+    wall_corners = vertices[triangles[-2:]]
+    factor = sum(point_to_triangle(points[near], np.tile([0.0, 0, 1], (near.sum(), 1)),
+                                   np.repeat(corners[None], near.sum(), axis=0)) for corners in wall_corners)
+    expected = RHO * (1 - factor)
+    assert factor.min() > 0.15  # the wall blocks a real share of the sky there
+    # 256 stratified directions per node: the wall's outline crosses about 2 * 16 of the 16 x 16
+    # strata, each of which may be wrong by up to 1/256, in either direction, so a node's share
+    # is off by about sqrt(32) / 256 = 2% at most in practice (measured 2.6% of rho at worst,
+    # so 5% per node); the row's mean averages that down by sqrt(48) (measured 0.1%)
+    np.testing.assert_allclose(colours[near, 0], expected, atol=RHO * 0.05)
+    assert abs(colours[near, 0].mean() - expected.mean()) < RHO * 0.005
+
+
+@pytest.mark.parametrize("method,solver", [("raycast", "progressive"), ("hemicube", "jacobi")])
+@pytest.mark.parametrize("kind", ["point", "area"])
+def test_light_inside_a_closed_box_conserves_energy(method, solver, kind):
+    """All of a light's power P is absorbed by the walls: sum (1 - rho) pi G A = P, so with
+    B = rho G on walls of one reflectance, sum A B = rho P / (pi (1 - rho))."""
+    rho, power = 0.6, 50.0
+    vertices, triangles = box(2.0)
+    if kind == "point":
+        light = PointLight([0.7, 1.1, 1.3], [power] * 3)
+    else:
+        matrix = np.eye(4)
+        matrix[:3, 3] = [1.0, 1.0, 1.9]
+        light = area_light("SQUARE", 0.6, 0.0, matrix, [power] * 3)
+    count = len(triangles)
+    scene = Scene(vertices, triangles, np.full((count, 3), rho), np.zeros((count, 3)), lights=[light])
+    result = bake(scene, method, solver, patch_size=0.5, tolerance=1e-4)
+    corners = vertices[triangles]
+    areas = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    total = areas @ result.triangle_radiosity[:, 0]
+    # patches receive the light averaged over 16 points (point) or at the centroid (area):
+    # 1% covers that sampling on 0.5 m patches (measured: under 0.5%)
+    assert total == pytest.approx(rho * power / (math.pi * (1 - rho)), rel=1e-2)
+
+
+def test_light_validation_names_the_problem():
+    with pytest.raises(ValueError, match="spot_size"):
+        SpotLight([0, 0, 0], [0, 0, -1], [1, 1, 1], spot_size=0.0)
+    with pytest.raises(ValueError, match="direction"):
+        SunLight([0, 0, 0], [1, 1, 1])
+    with pytest.raises(ValueError, match="power"):
+        PointLight([0, 0, 0], [1, -1, 1])
+    with pytest.raises(ValueError, match="positive area"):
+        AreaLight(np.zeros((1, 3, 3)), [1, 1, 1])
+    with pytest.raises(ValueError, match="shape"):
+        area_light("TRIANGLE", 1.0, 1.0, np.eye(4), [1, 1, 1])
+    with pytest.raises(TypeError, match=r"lights\[1\]"):
+        floor_scene(lights=[PointLight([0, 0, 1], [1, 1, 1]), "sun"])
+    with pytest.raises(ValueError, match="sky"):
+        floor_scene(sky=[1.0, -1.0, 0.0])
