@@ -1,30 +1,57 @@
-# Everything a newcomer runs. Each target sets up what it needs (.venv with pinned packages).
+# Everything a newcomer runs. Each target sets up what it needs: two virtualenvs with the pinned
+# packages of pyproject.toml, one per end of the supported Blender range (see its comments).
+#   .venv        numpy, embreex, pytest, bpy 5.0.1   (bake, core tests, add-on tests, extension build)
+#   .venv-bpy42  numpy, embreex, pytest, bpy 4.2.0   (add-on tests on the oldest supported Blender)
 PYTHON ?= python3.11
 VENV := .venv
+VENV42 := .venv-bpy42
 PY := $(VENV)/bin/python
-SAMPLE := sample_blends/cornell_box.obj
+PY42 := $(VENV42)/bin/python
+SAMPLE := sample_blends/cornell_box.blend
 
-.PHONY: bake test test-core bench clean
+.PHONY: bake test test-core test-addon extension bench clean
 
-$(VENV)/.ready: pyproject.toml
-	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -c "import tomllib; p = tomllib.load(open('pyproject.toml', 'rb'))['project']; \
-	print('\n'.join(p['dependencies'] + p['optional-dependencies']['dev']))" > $(VENV)/requirements.txt
-	$(PY) -m pip install --quiet -r $(VENV)/requirements.txt
+# A virtualenv is ready when its stamp is newer than pyproject.toml; re-running pip on a changed
+# pyproject.toml moves the pins in place (bpy is about 400 MB: not downloaded again when it is already
+# installed at the pinned version).
+$(VENV)/.ready: GROUP := bpy50
+$(VENV42)/.ready: GROUP := bpy42
+$(VENV)/.ready $(VENV42)/.ready: pyproject.toml
+	$(PYTHON) -m venv $(@D)
+	$(@D)/bin/python -m pip install --quiet --upgrade pip
+	$(@D)/bin/python -c "import tomllib; p = tomllib.load(open('pyproject.toml', 'rb'))['project']; \
+	print('\n'.join(p['dependencies'] + p['optional-dependencies']['dev'] + p['optional-dependencies']['$(GROUP)']))" \
+	> $(@D)/requirements.txt
+	$(@D)/bin/python -m pip install --quiet -r $(@D)/requirements.txt
 	touch $@
 
-## Bake the bundled Cornell box headless; prints what it did and writes build/cornell_box_baked.ply
+## Bake the sample Cornell box headless through the add-on, as `blender -b FILE -c radiosity` does:
+## writes build/cornell_box_baked.blend and a picture of its colours, build/cornell_box_baked.png
 bake: $(VENV)/.ready
-	$(PY) -m core bake $(SAMPLE) --subdivide 4 --output build/cornell_box_baked.ply
+	$(PY) tools/radiosity_command.py --input $(SAMPLE) --output build/cornell_box_baked.blend \
+		--render build/cornell_box_baked.png
 
-## The whole test suite (core tests need no Blender; add-on tests will run in a pytest process of their own)
-test: $(VENV)/.ready
-	$(PY) -m pytest tests/core -q
+## The whole test suite: the core tests (no Blender), then the add-on tests with bpy 5.0.1 and with
+## bpy 4.2.0, each in a pytest process of its own (bpy can be imported once per process)
+test: $(VENV)/.ready $(VENV42)/.ready
+	@failed=""; $(CORE_TESTS) $(ADDON_TESTS) $(REPORT)
+
+test-core: $(VENV)/.ready
+	@failed=""; $(CORE_TESTS) $(REPORT)
+
+test-addon: $(VENV)/.ready $(VENV42)/.ready
+	@failed=""; $(ADDON_TESTS) $(REPORT)
+
+## The installable extension: build/radiosity-<version>-<platform>.zip, one per platform with its
+## embreex wheels (downloaded once into wheels/), built and validated by Blender's own extension
+## tool. The committed blender_manifest.toml lists no wheels; tools/build_extension.py says why.
+extension: $(VENV)/.ready
+	$(PY) tools/build_extension.py --output-dir build
 
 ## Speed and accuracy figures (see docs/benchmarks.md)
 bench: $(VENV)/.ready
 	$(PY) bench/run.py
 
+# wheels/ stays: it only holds downloads, which the extension build and its test reuse
 clean:
-	rm -rf $(VENV) build
+	rm -rf $(VENV) $(VENV42) build

@@ -1,22 +1,18 @@
-"""The Blender layer: properties, panel, operators, scene extraction, write-back and the
-``-c radiosity`` command. It gathers settings and calls ``core``; it holds no mathematics.
+"""The Blender layer: settings (``properties``), scene reading (``extract``, ``materials``),
+the bake as Blender runs it (``baking``), write-back (``write``), operators, panel, the
+``-c radiosity`` command (``cli``) and a picture of the result (``preview``). It gathers
+settings and calls ``core``; it holds no mathematics."""
 
-Until the add-on issue lands, enabling the extension registers nothing: the core is used
-through ``python -m core`` (see the README).
-"""
+from . import cli, operators, panel, properties
 
-classes: tuple = ()
+modules = (properties, operators, panel, cli)
 
 
 def register() -> None:
-    import bpy
-
-    for cls in classes:
-        bpy.utils.register_class(cls)
+    for module in modules:
+        module.register()
 
 
 def unregister() -> None:
-    import bpy
-
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+    for module in reversed(modules):
+        module.unregister()

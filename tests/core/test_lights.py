@@ -161,7 +161,7 @@ def test_sky_is_blocked_by_a_wall_as_its_form_factor_says():
     reflectance = np.full((len(triangles), 3), RHO)
     reflectance[-2:] = 0.0
     scene = Scene(vertices, triangles, reflectance, np.zeros_like(reflectance), sky=[1.0, 1.0, 1.0])
-    result = bake(scene, rays_per_form_factor=256, tolerance=1e-6)
+    result = bake(scene, tolerance=1e-6)  # 16 rays: 256 sky directions per node
     points, colours = vertex_values(scene, result.corner_colors, -2)
     near = np.abs(points[:, 1] + 0.5) < 1e-9  # the row of nodes 0.5 m from the wall
     wall_corners = vertices[triangles[-2:]]

@@ -1,0 +1,86 @@
+"""One bake from Blender's point of view, shared by the operator (modal or straight through)
+and the ``-c radiosity`` command: read the settings and the evaluated scene, run the core,
+write the colours, say what was done."""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass
+
+from ..core import bake
+from ..core.job import BakeJob
+from ..core.visibility import default_backend
+from .extract import Extraction, extract
+from .write import plan, write
+
+
+@dataclass
+class Prepared:
+    """A bake ready to run: the extracted scene and the core's arguments."""
+
+    extraction: Extraction
+    method: str
+    solver: str
+    knobs: dict
+    attribute: str
+    lighting_only: bool
+    copy_changed: bool
+
+    def job(self) -> BakeJob:
+        return BakeJob(self.extraction.scene, self.method, self.solver, **self.knobs)
+
+
+@dataclass
+class Outcome:
+    summary: str
+    notes: list[str]
+    written: list[str]
+
+
+def prepare(scene, depsgraph) -> Prepared:
+    """Settings of ``scene.radiosity`` and the evaluated scene; ValueError for bad input."""
+    settings = scene.radiosity
+    attribute = settings.attribute_name.strip()
+    if not attribute:
+        raise ValueError("the output attribute name is empty")
+    extraction = extract(depsgraph, settings.two_sided)
+    method, solver, knobs = settings.core_arguments(extraction.scene.extent)
+    if default_backend() != "embree":
+        extraction.notes.append("Embree is not available here: rays are traced by the slower NumPy ray caster")
+    # fail early, before any work, on targets that cannot be written
+    plan(extraction.targets, attribute, settings.modified_topology == "COPY")
+    return Prepared(extraction, method, solver, knobs, attribute, settings.output == "LIGHTING",
+                    settings.modified_topology == "COPY")
+
+
+def run_straight(prepared: Prepared, echo: bool = True):
+    """The core bake in one go, printing progress to the console every second when ``echo``."""
+    last = [0.0]
+
+    def progress(fraction: float, message: str) -> None:
+        if echo and time.perf_counter() - last[0] >= 1.0:
+            last[0] = time.perf_counter()
+            print(f"radiosity: {100 * fraction:5.1f}%  {message}", file=sys.stderr, flush=True)
+
+    extraction = prepared.extraction
+    return bake(extraction.scene, prepared.method, prepared.solver, progress=progress, **prepared.knobs)
+
+
+def finish(prepared: Prepared, result, depsgraph) -> Outcome:
+    """Write the result (all meshes or none) and describe the bake."""
+    targets, notes = plan(prepared.extraction.targets, prepared.attribute, prepared.copy_changed)
+    colours = result.corner_lighting if prepared.lighting_only else result.corner_colors
+    written = write(targets, colours, prepared.attribute, depsgraph)
+    return Outcome(describe(result.stats, len(written), prepared), prepared.extraction.notes + notes, written)
+
+
+def describe(stats: dict, objects: int, prepared: Prepared) -> str:
+    """One line: what was baked, how finely, how long, how much light was left."""
+    left = stats.get("unshot_fraction", stats.get("error_bound"))
+    left_text = f", {100 * left:.2g}% of the light unshot" if "unshot_fraction" in stats else (
+        f", error bound {100 * left:.2g}%" if left is not None else "")
+    output = "lighting" if prepared.lighting_only else "radiosity"
+    return (f"Baked {output} into '{prepared.attribute}' on {objects} object(s): {stats['triangles']:,} triangles, "
+            f"{stats['patches']:,} patches, {stats['nodes']:,} vertex colours, {stats['lights']} light object(s), "
+            f"{stats['seconds']['total']:.1f} s{left_text}")

@@ -1,0 +1,178 @@
+"""The evaluated Blender scene -> ``core.Scene``, plus where each triangle corner's colour goes
+back (object, loop) and a note for everything approximated or skipped.
+
+Taken: mesh objects visible in renders (modifiers applied, instances included, world space),
+their materials (``materials``), point, spot, sun and area lights, and the world's background
+colour x strength as sky light.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core import Scene
+from ..core.lights import PointLight, SpotLight, SunLight, area_light
+from .materials import Surface, default_surface, material_surface
+
+
+@dataclass
+class MeshTarget:
+    """Where the colours of scene triangles [start, stop) go: the corners (loops) of the
+    original mesh of object ``object_name``."""
+
+    object_name: str
+    mesh_name: str
+    start: int
+    stop: int
+    loops: np.ndarray  # (stop - start, 3) loop index of each triangle corner
+    loop_count: int
+    topology_changed: bool = False
+
+
+@dataclass
+class Extraction:
+    scene: Scene
+    targets: list[MeshTarget]
+    notes: list[str] = field(default_factory=list)
+
+
+class _Builder:
+    def __init__(self) -> None:
+        self.vertices: list[np.ndarray] = []
+        self.triangles: list[np.ndarray] = []
+        self.material: list[np.ndarray] = []
+        self.surfaces: list[Surface] = []
+        self.surface_index: dict[str, int] = {}
+        self.targets: list[MeshTarget] = []
+        self.notes: list[str] = []
+        self.lights: list = []
+        self.vertex_count = 0
+        self.triangle_count = 0
+
+    def surface(self, material) -> int:
+        key = material.name if material is not None else ""
+        if key not in self.surface_index:
+            surface = material_surface(material) if material is not None else default_surface()
+            self.notes.extend(surface.notes)
+            self.surface_index[key] = len(self.surfaces)
+            self.surfaces.append(surface)
+        return self.surface_index[key]
+
+
+def extract(depsgraph, two_sided: bool = True) -> Extraction:
+    """Read ``depsgraph`` (evaluated) into an Extraction; ValueError if nothing can be baked."""
+    builder = _Builder()
+    skipped: dict[str, list[str]] = {}
+    for instance in depsgraph.object_instances:
+        obj = instance.object
+        original = obj.original
+        if original.hide_render or not (instance.is_instance or instance.show_self):
+            continue
+        if obj.type == "LIGHT":
+            _add_light(builder, obj, np.array(instance.matrix_world))
+        elif obj.type == "MESH":
+            _add_mesh(builder, obj, np.array(instance.matrix_world), instance.is_instance)
+        elif obj.type in ("CURVE", "SURFACE", "FONT", "META", "CURVES", "POINTCLOUD", "VOLUME"):
+            skipped.setdefault(obj.type.lower(), []).append(original.name)
+    for kind, names in skipped.items():
+        builder.notes.append(f"{len(names)} {kind} object(s) skipped (only meshes are baked): {_names(names)}")
+    if not builder.triangles:
+        raise ValueError("there is no mesh visible in renders to bake")
+    world = depsgraph.scene.world
+    sky = _world_colour(world, builder.notes) if world is not None else np.zeros(3)
+    reflectance = np.array([s.reflectance for s in builder.surfaces])
+    emission = np.array([s.emission for s in builder.surfaces])
+    material = np.concatenate(builder.material)
+    triangles = np.concatenate(builder.triangles)
+    scene = Scene(
+        np.concatenate(builder.vertices), triangles, reflectance[material], emission[material],
+        material=material, two_sided=np.full(len(triangles), two_sided), lights=builder.lights, sky=sky,
+    )
+    return Extraction(scene, builder.targets, builder.notes)
+
+
+def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, is_instance: bool) -> None:
+    mesh = obj.to_mesh()
+    try:
+        mesh.calc_loop_triangles()
+        count = len(mesh.loop_triangles)
+        if count == 0:
+            return
+        corners = _get(mesh.loop_triangles, "vertices", count * 3, np.int64).reshape(-1, 3)
+        loops = _get(mesh.loop_triangles, "loops", count * 3, np.int64).reshape(-1, 3)
+        slots = _get(mesh.loop_triangles, "material_index", count, np.int64)
+        positions = _get(mesh.vertices, "co", len(mesh.vertices) * 3, np.float64).reshape(-1, 3)
+        loop_count = len(mesh.loops)
+    finally:
+        obj.to_mesh_clear()
+    world = positions @ matrix[:3, :3].T + matrix[:3, 3]
+    if np.linalg.det(matrix[:3, :3]) < 0:  # a mirroring transform turns the faces inside out
+        corners, loops = corners[:, ::-1], loops[:, ::-1]
+    materials = [slot.material for slot in obj.material_slots] or [None]
+    ids = np.array([builder.surface(material) for material in materials])
+    builder.vertices.append(world)
+    builder.triangles.append(corners + builder.vertex_count)
+    builder.material.append(ids[np.clip(slots, 0, len(ids) - 1)])
+    start = builder.triangle_count
+    builder.vertex_count += len(world)
+    builder.triangle_count += count
+    if is_instance:
+        return  # lights and shades the others; its mesh belongs to the instanced object
+    original = obj.original
+    changed = loop_count != len(original.data.loops)
+    builder.targets.append(MeshTarget(original.name, original.data.name, start, builder.triangle_count, loops,
+                                      loop_count, changed))
+
+
+def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
+    light = obj.data
+    power = np.array(light.color[:3]) * light.energy * 2.0 ** getattr(light, "exposure", 0.0)
+    position, axis = matrix[:3, 3], -matrix[:3, 2]
+    name = obj.original.name
+    if getattr(light, "use_nodes", False):
+        builder.notes.append(f"light '{name}': its node setup is ignored (colour x power used)")
+    if getattr(light, "use_temperature", False):
+        builder.notes.append(f"light '{name}': its blackbody temperature is ignored (colour x power used)")
+    if light.type == "POINT":
+        builder.lights.append(PointLight(position, power))
+    elif light.type == "SPOT":
+        builder.lights.append(SpotLight(position, axis, power, light.spot_size, light.spot_blend))
+    elif light.type == "SUN":
+        builder.lights.append(SunLight(axis, power))
+    elif light.type == "AREA":
+        if getattr(light, "spread", np.pi) < np.pi - 1e-6:
+            builder.notes.append(f"light '{name}': spread {np.degrees(light.spread):.0f} deg treated as 180 deg")
+        builder.lights.append(area_light(light.shape, light.size, light.size_y, matrix, power,
+                                         getattr(light, "normalize", True)))
+    if light.type in ("POINT", "SPOT") and light.shadow_soft_size > 0:
+        builder.notes.append(f"light '{name}': radius {light.shadow_soft_size:.3g} treated as a point "
+                             "(same light, harder shadows)")
+
+
+def _world_colour(world, notes: list[str]) -> np.ndarray:
+    """(3,) background colour x strength of the world, as uniform sky light."""
+    tree = world.node_tree if getattr(world, "use_nodes", True) else None
+    output = tree.get_output_node("CYCLES") if tree is not None else None
+    if output is None or not output.inputs["Surface"].is_linked:
+        return np.array(world.color[:3], dtype=np.float64) if tree is None else np.zeros(3)
+    node = output.inputs["Surface"].links[0].from_node
+    if node.bl_idname != "ShaderNodeBackground":
+        notes.append(f"world '{world.name}': {node.bl_idname} not understood, viewport colour used as sky")
+        return np.array(world.color[:3], dtype=np.float64)
+    colour, strength = node.inputs["Color"], node.inputs["Strength"]
+    if colour.is_linked or strength.is_linked:
+        notes.append(f"world '{world.name}': a textured background is taken as its unlinked colour")
+    return np.array(colour.default_value[:3], dtype=np.float64) * float(strength.default_value)
+
+
+def _get(collection, attribute: str, size: int, dtype) -> np.ndarray:
+    values = np.empty(size, dtype=np.int32 if dtype == np.int64 else np.float32)
+    collection.foreach_get(attribute, values)
+    return values.astype(dtype)
+
+
+def _names(names: list[str], shown: int = 5) -> str:
+    text = ", ".join(f"'{n}'" for n in names[:shown])
+    return text + (f" and {len(names) - shown} more" if len(names) > shown else "")

@@ -1,0 +1,154 @@
+"""Blender materials -> diffuse reflectance and emission (linear RGB), with a note for every
+approximation. Understood: Principled BSDF (base colour, emission colour x strength), Diffuse
+BSDF, Emission, Mix and Add Shader of those, an Image Texture feeding a colour (its mean colour
+over the image). Anything else falls back to the material's viewport colour, with a warning."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+# Cycles' surface where a mesh has no material: a grey diffuse of 0.8.
+DEFAULT_GREY = 0.8
+# The core needs reflectance below 1 (a closed scene would have no finite solution otherwise).
+MAX_REFLECTANCE = 0.999
+# Shares of non-diffuse response worth a note; Principled's default specular (IOR level 0.5)
+# is the baseline every material has, so only more than that is mentioned.
+SIGNIFICANT_SHARE = 0.01
+DEFAULT_SPECULAR_LEVEL = 0.5
+
+
+class Surface(NamedTuple):
+    reflectance: np.ndarray  # (3,)
+    emission: np.ndarray  # (3,)
+    notes: tuple[str, ...]
+
+
+def default_surface() -> Surface:
+    return Surface(np.full(3, DEFAULT_GREY), np.zeros(3), ())
+
+
+def material_surface(material) -> Surface:
+    """The diffuse Surface of a bpy Material, or of None (no material)."""
+    if material is None:
+        return default_surface()
+    name = material.name
+    tree = material.node_tree if getattr(material, "use_nodes", True) else None
+    output = tree.get_output_node("CYCLES") if tree is not None else None
+    link = _link_into(output.inputs["Surface"]) if output is not None else None
+    if link is None:
+        notes = () if tree is None else (f"material '{name}': no surface shader, viewport colour used",)
+        return _clamped(Surface(_rgb(material.diffuse_color), np.zeros(3), notes), name)
+    notes: list[str] = []
+    surface = _shader(link.from_node, name, notes)
+    if surface is None:
+        notes.append(f"material '{name}': node setup not understood ({link.from_node.bl_idname}), "
+                     "viewport colour used")
+        surface = Surface(_rgb(material.diffuse_color), np.zeros(3), ())
+    return _clamped(Surface(surface.reflectance, surface.emission, tuple(notes)), name)
+
+
+def _clamped(surface: Surface, name: str) -> Surface:
+    if (surface.reflectance <= MAX_REFLECTANCE).all():
+        return surface
+    note = f"material '{name}': reflectance {surface.reflectance.max():.4g} capped at {MAX_REFLECTANCE}"
+    return Surface(np.minimum(surface.reflectance, MAX_REFLECTANCE), surface.emission, surface.notes + (note,))
+
+
+def _shader(node, name: str, notes: list[str]) -> Surface | None:
+    """Reflectance and emission of a shader node, None when not understood."""
+    node = _through_reroutes(node)
+    kind = node.bl_idname
+    if kind == "ShaderNodeBsdfPrincipled":
+        _note_non_diffuse(node, name, notes)
+        emission = _colour(node.inputs["Emission Color" if "Emission Color" in node.inputs else "Emission"],
+                           name, notes)
+        strength = _value(node.inputs["Emission Strength"], name, notes) if "Emission Strength" in node.inputs else 1.0
+        return Surface(_colour(node.inputs["Base Color"], name, notes), emission * strength, ())
+    if kind == "ShaderNodeBsdfDiffuse":
+        return Surface(_colour(node.inputs["Color"], name, notes), np.zeros(3), ())
+    if kind == "ShaderNodeEmission":
+        strength = _value(node.inputs["Strength"], name, notes)
+        return Surface(np.zeros(3), _colour(node.inputs["Color"], name, notes) * strength, ())
+    if kind in ("ShaderNodeMixShader", "ShaderNodeAddShader"):
+        shaders = [socket for socket in node.inputs if socket.type == "SHADER"]
+        parts = [_shader(link.from_node, name, notes) if (link := _link_into(s)) else _black() for s in shaders]
+        if any(part is None for part in parts):
+            return None
+        if kind == "ShaderNodeAddShader":
+            weights = (1.0, 1.0)
+        else:
+            fac = _value(node.inputs["Fac"], name, notes)
+            weights = (1.0 - fac, fac)
+        return Surface(sum(w * p.reflectance for w, p in zip(weights, parts)),
+                       sum(w * p.emission for w, p in zip(weights, parts)), ())
+    return None
+
+
+def _black() -> Surface:
+    return Surface(np.zeros(3), np.zeros(3), ())
+
+
+def _note_non_diffuse(node, name: str, notes: list[str]) -> None:
+    """Principled inputs that make a surface not purely diffuse, where significant."""
+    checks = [("Metallic", "metallic", 0.0), ("Transmission Weight", "transmission", 0.0),
+              ("Transmission", "transmission", 0.0), ("Coat Weight", "coat", 0.0),
+              ("Specular IOR Level", "specular", DEFAULT_SPECULAR_LEVEL), ("Specular", "specular", 0.5)]
+    for socket_name, label, baseline in checks:
+        socket = node.inputs.get(socket_name)
+        if socket is None:
+            continue
+        if socket.is_linked or socket.default_value > baseline + SIGNIFICANT_SHARE:
+            amount = "textured" if socket.is_linked else f"{socket.default_value:.2f}"
+            notes.append(f"material '{name}': {label} {amount} is not diffuse; baked as diffuse base colour")
+
+
+def _colour(socket, name: str, notes: list[str]) -> np.ndarray:
+    link = _link_into(socket)
+    if link is None:
+        return _rgb(socket.default_value)
+    node = _through_reroutes(link.from_node)
+    if node.bl_idname == "ShaderNodeTexImage" and node.image is not None:
+        mean = image_mean(node.image)
+        if mean is not None:
+            notes.append(f"material '{name}': textured {socket.name} averaged over image '{node.image.name}'")
+            return mean
+    notes.append(f"material '{name}': {socket.name} from a {node.bl_idname} not understood, "
+                 "its unlinked value used")
+    return _rgb(socket.default_value)
+
+
+def _value(socket, name: str, notes: list[str]) -> float:
+    if _link_into(socket) is not None:
+        notes.append(f"material '{name}': {socket.name} is driven by nodes; its unlinked value used")
+    return float(socket.default_value)
+
+
+def image_mean(image) -> np.ndarray | None:
+    """(3,) mean linear colour of a Blender image, None when it has no pixels (missing file).
+    Byte images in an sRGB colour space are decoded to linear first."""
+    channels = image.channels
+    count = image.size[0] * image.size[1] * channels
+    if count == 0 or channels < 3:
+        return None
+    pixels = np.empty(count, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    rgb = pixels.reshape(-1, channels)[:, :3].astype(np.float64)
+    if not image.is_float and image.colorspace_settings.name == "sRGB":
+        rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    return rgb.mean(axis=0)
+
+
+def _link_into(socket):
+    return socket.links[0] if socket.is_linked and socket.links else None
+
+
+def _through_reroutes(node):
+    while node.bl_idname == "NodeReroute" and node.inputs[0].is_linked:
+        node = node.inputs[0].links[0].from_node
+    return node
+
+
+def _rgb(value) -> np.ndarray:
+    return np.array(value[:3], dtype=np.float64)

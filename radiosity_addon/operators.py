@@ -1,0 +1,136 @@
+"""``bpy.ops.radiosity.bake()`` and ``bpy.ops.radiosity.clear()``.
+
+In the UI the bake is modal: the core works in slices under a time budget per timer tick, the
+status bar shows its progress, Esc cancels with nothing changed, and the colours are written in
+the last step only, so a finished bake is one undo step. In background mode, or when called
+from a script without invoking, it runs straight through.
+"""
+
+from __future__ import annotations
+
+import bpy
+
+from ..core import BakeCancelled
+from .baking import finish, prepare, run_straight
+
+# Seconds of core work per timer tick, and the ticks' interval: the UI stays responsive.
+SLICE_BUDGET = 0.1
+TICK_INTERVAL = 0.02
+
+
+class RADIOSITY_OT_bake(bpy.types.Operator):
+    """Bake diffuse global illumination (radiosity) into a colour attribute of every mesh"""
+
+    bl_idname = "radiosity.bake"
+    bl_label = "Bake Radiosity"
+    bl_options = {"REGISTER", "UNDO"}
+
+    _job = None
+    _prepared = None
+    _timer = None
+
+    def execute(self, context):
+        try:
+            prepared = prepare(context.scene, context.evaluated_depsgraph_get())
+            result = run_straight(prepared, echo=bpy.app.background)
+            return self._finish(context, prepared, result)
+        except BakeCancelled:
+            self.report({"WARNING"}, "Bake cancelled: nothing changed")
+            return {"CANCELLED"}
+        except ValueError as error:
+            self.report({"ERROR"}, f"Bake: {error}")
+            return {"CANCELLED"}
+
+    def invoke(self, context, event):
+        if bpy.app.background or not self.options.is_invoke:
+            return self.execute(context)
+        try:
+            self._prepared = prepare(context.scene, context.evaluated_depsgraph_get())
+        except ValueError as error:
+            self.report({"ERROR"}, f"Bake: {error}")
+            return {"CANCELLED"}
+        self._job = self._prepared.job()
+        manager = context.window_manager
+        self._timer = manager.event_timer_add(TICK_INTERVAL, window=context.window)
+        manager.modal_handler_add(self)
+        manager.progress_begin(0, 100)
+        context.workspace.status_text_set("Radiosity: starting (Esc to cancel)")
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._job.cancel()
+            self._end(context)
+            self.report({"WARNING"}, "Bake cancelled: nothing changed")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        finished = self._job.step(SLICE_BUDGET)
+        job = self._job
+        context.window_manager.progress_update(int(100 * job.fraction))
+        context.workspace.status_text_set(f"Radiosity: {100 * job.fraction:.0f}%  {job.message}  (Esc to cancel)")
+        if not finished:
+            return {"RUNNING_MODAL"}
+        self._end(context)
+        try:
+            result = job.result()
+            return self._finish(context, self._prepared, result)
+        except BakeCancelled:
+            return {"CANCELLED"}
+        except ValueError as error:
+            self.report({"ERROR"}, f"Bake: {error}")
+            return {"CANCELLED"}
+
+    def _end(self, context) -> None:
+        manager = context.window_manager
+        manager.event_timer_remove(self._timer)
+        manager.progress_end()
+        context.workspace.status_text_set(None)
+
+    def _finish(self, context, prepared, result):
+        outcome = finish(prepared, result, context.evaluated_depsgraph_get())
+        for note in outcome.notes:
+            self.report({"WARNING"}, note)
+        self.report({"INFO"}, outcome.summary)
+        context.scene.radiosity.last_report = outcome.summary
+        _show_colours(context)
+        return {"FINISHED"}
+
+
+class RADIOSITY_OT_clear(bpy.types.Operator):
+    """Remove the baked colour attribute from every mesh in the scene"""
+
+    bl_idname = "radiosity.clear"
+    bl_label = "Clear Radiosity"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        from .write import clear
+
+        name = context.scene.radiosity.attribute_name
+        cleared = clear(context.scene.objects, name)
+        self.report({"INFO"}, f"Removed '{name}' from {len(cleared)} mesh(es)")
+        return {"FINISHED"}
+
+
+def _show_colours(context) -> None:
+    """Solid-mode 3D views show colour attributes, so the result shows at once."""
+    screen = getattr(context, "screen", None)
+    for area in screen.areas if screen is not None else ():
+        if area.type == "VIEW_3D":
+            shading = area.spaces.active.shading
+            if shading.type == "SOLID":
+                shading.color_type = "VERTEX"
+
+
+classes = (RADIOSITY_OT_bake, RADIOSITY_OT_clear)
+
+
+def register() -> None:
+    for cls in classes:
+        bpy.utils.register_class(cls)
+
+
+def unregister() -> None:
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,101 @@
+"""The Radiosity panel: in Render Properties beside Cycles' Bake panel, and in the 3D View's
+sidebar (tab "Radiosity"). Presets, the few knobs that matter, Bake and Clear."""
+
+from __future__ import annotations
+
+import bpy
+
+from ..core.presets import PRESETS
+
+
+def draw_settings(layout, settings) -> None:
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    layout.prop(settings, "preset")
+    if settings.preset == "CUSTOM":
+        layout.prop(settings, "patch_size")
+        layout.prop(settings, "rays" if settings.method == "raycast" else "hemicube_resolution")
+        layout.prop(settings, "tolerance")
+    else:
+        preset = PRESETS[settings.preset]
+        column = layout.column(align=True)
+        column.active = False
+        column.label(text=preset.description)
+    layout.prop(settings, "output")
+    layout.prop(settings, "attribute_name")
+    row = layout.row(align=True)
+    row.scale_y = 1.4
+    row.operator("radiosity.bake", icon="LIGHT_SUN")
+    row.operator("radiosity.clear", text="", icon="TRASH")
+    if settings.last_report:
+        box = layout.box()
+        box.label(text=settings.last_report, icon="INFO")
+
+
+def draw_advanced(layout, settings) -> None:
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    layout.prop(settings, "method")
+    layout.prop(settings, "solver")
+    layout.prop(settings, "ambient")
+    layout.prop(settings, "two_sided")
+    layout.prop(settings, "crease_angle")
+    layout.prop(settings, "modified_topology")
+
+
+class RADIOSITY_PT_render(bpy.types.Panel):
+    bl_label = "Radiosity Bake"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        draw_settings(self.layout, context.scene.radiosity)
+
+
+class RADIOSITY_PT_render_advanced(bpy.types.Panel):
+    bl_label = "Advanced"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    bl_parent_id = "RADIOSITY_PT_render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        draw_advanced(self.layout, context.scene.radiosity)
+
+
+class RADIOSITY_PT_sidebar(bpy.types.Panel):
+    bl_label = "Radiosity Bake"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Radiosity"
+
+    def draw(self, context):
+        draw_settings(self.layout, context.scene.radiosity)
+
+
+class RADIOSITY_PT_sidebar_advanced(bpy.types.Panel):
+    bl_label = "Advanced"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Radiosity"
+    bl_parent_id = "RADIOSITY_PT_sidebar"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        draw_advanced(self.layout, context.scene.radiosity)
+
+
+classes = (RADIOSITY_PT_render, RADIOSITY_PT_render_advanced, RADIOSITY_PT_sidebar, RADIOSITY_PT_sidebar_advanced)
+
+
+def register() -> None:
+    for cls in classes:
+        bpy.utils.register_class(cls)
+
+
+def unregister() -> None:
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,120 @@
+"""``scene.radiosity``: the bake settings, saved in the .blend so a batch bake reproduces the
+UI bake. Names are stable: scripts and farms set them."""
+
+from __future__ import annotations
+
+import math
+
+import bpy
+
+from ..core.presets import PRESETS, preset_knobs
+
+DEFAULT_ATTRIBUTE = "Radiosity"
+
+PRESET_ITEMS = [(key, preset.label, preset.description) for key, preset in PRESETS.items()] + [
+    ("CUSTOM", "Custom", "The knobs below"),
+]
+RAY_ITEMS = [(str(n), str(n), f"{n} visibility rays per form factor") for n in (1, 4, 9, 16, 36, 64, 144, 256)]
+
+
+class RadiositySettings(bpy.types.PropertyGroup):
+    preset: bpy.props.EnumProperty(
+        name="Preset", items=PRESET_ITEMS, default="PREVIEW",
+        description="Speed against accuracy; Custom uses the knobs below",
+    )
+    output: bpy.props.EnumProperty(
+        name="Output",
+        items=[
+            ("RADIOSITY", "Full Radiosity", "Emitted plus reflected light: what Cycles' Combined bake gives"),
+            ("LIGHTING", "Lighting Only", "The light arriving (irradiance / pi), to multiply with textures later"),
+        ],
+        default="RADIOSITY",
+    )
+    attribute_name: bpy.props.StringProperty(
+        name="Attribute", default=DEFAULT_ATTRIBUTE,
+        description="Colour attribute written on every baked mesh (Float Color, Face Corner); "
+        "baking again replaces only this attribute",
+    )
+    method: bpy.props.EnumProperty(
+        name="Form Factors",
+        items=[
+            ("raycast", "Ray Casting", "Exact point-to-patch form factors times ray-cast visibility"),
+            ("hemicube", "Hemicube", "The classic half-cube of pixels around each receiver"),
+        ],
+        default="raycast",
+    )
+    solver: bpy.props.EnumProperty(
+        name="Solver",
+        items=[
+            ("progressive", "Progressive", "Shoot the brightest patch first; memory grows with the scene"),
+            ("jacobi", "Jacobi", "Iterate on the full matrix (small scenes)"),
+            ("gauss_seidel", "Gauss-Seidel", "Iterate on the full matrix, in place (small scenes)"),
+        ],
+        default="progressive",
+    )
+    patch_size: bpy.props.FloatProperty(
+        name="Patch Size", default=0.0, min=0.0, soft_max=10.0, subtype="DISTANCE", unit="LENGTH",
+        description="Longest patch edge; 0 picks a quarter of the scene's size",
+    )
+    rays: bpy.props.EnumProperty(name="Rays", items=RAY_ITEMS, default="16",
+                                 description="Visibility rays per form factor, area-light sample and sky point")
+    hemicube_resolution: bpy.props.IntProperty(
+        name="Hemicube Resolution", default=64, min=2, soft_max=512, step=2,
+        description="Pixels across the hemicube's top face (even)",
+    )
+    tolerance: bpy.props.FloatProperty(
+        name="Tolerance", default=1e-3, min=1e-7, max=0.5, precision=5,
+        description="Stop when this share of the light is still to be distributed",
+    )
+    ambient: bpy.props.BoolProperty(
+        name="Ambient Term", default=True,
+        description="Add an estimate of the light not yet shot (progressive only)",
+    )
+    two_sided: bpy.props.BoolProperty(
+        name="Two-Sided Surfaces", default=True,
+        description="Surfaces reflect and emit on both sides, as in Cycles; off halves the patches",
+    )
+    crease_angle: bpy.props.FloatProperty(
+        name="Crease Angle", default=0.5235987755982988, min=0.0, max=3.141592653589793, subtype="ANGLE",
+        description="Faces meeting at a sharper angle do not share a vertex colour",
+    )
+    modified_topology: bpy.props.EnumProperty(
+        name="Changed Topology",
+        items=[
+            ("SKIP", "Skip", "Meshes whose modifiers change the number of corners take part in the lighting "
+             "but get no colours (a warning says which)"),
+            ("COPY", "Bake Applied Copy", "Write the colours into a new object holding the evaluated mesh"),
+        ],
+        default="SKIP",
+        description="What to do with meshes whose modifiers change their topology",
+    )
+    last_report: bpy.props.StringProperty(name="Last Bake", default="", description="What the last bake did")
+
+    def core_arguments(self, extent: float) -> tuple[str, str, dict]:
+        """(method, solver, knobs) for ``core.bake`` on a scene of bounding-box diagonal ``extent``."""
+        if self.preset == "CUSTOM":
+            knobs = {
+                "patch_size": self.patch_size or None,
+                "rays_per_form_factor": int(self.rays),
+                "hemicube_resolution": self.hemicube_resolution,
+                "tolerance": self.tolerance,
+            }
+        else:
+            knobs = preset_knobs(self.preset, extent)
+        knobs |= {"ambient": self.ambient, "crease_angle": math.degrees(self.crease_angle)}
+        return self.method, self.solver, knobs
+
+
+classes = (RadiositySettings,)
+
+
+def register() -> None:
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    bpy.types.Scene.radiosity = bpy.props.PointerProperty(type=RadiositySettings)
+
+
+def unregister() -> None:
+    del bpy.types.Scene.radiosity
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,97 @@
+"""Per-corner colours -> a FLOAT_COLOR, CORNER-domain colour attribute on each baked mesh.
+
+All meshes or none: every target is checked before the first one is written. Only the attribute
+of the configured name is created or replaced; other attributes are never touched.
+"""
+
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from .extract import MeshTarget
+
+
+class WriteError(ValueError):
+    """A target cannot take the colours; nothing was written."""
+
+
+def plan(targets: list[MeshTarget], attribute: str, copy_changed: bool) -> tuple[list[MeshTarget], list[str]]:
+    """The targets to write and a note for each one left out; WriteError when the attribute
+    name is taken by something that is not a colour attribute."""
+    chosen, notes, owner = [], [], {}
+    for target in targets:
+        obj = bpy.data.objects.get(target.object_name)
+        if obj is None or obj.type != "MESH":
+            raise WriteError(f"object '{target.object_name}' is gone or no longer a mesh; bake again")
+        if target.topology_changed and not copy_changed:
+            notes.append(f"object '{target.object_name}': its modifiers change the topology; it took part in "
+                         "the lighting but got no colours (choose 'Bake Applied Copy' to keep them)")
+            continue
+        if target.topology_changed:
+            chosen.append(target)
+            continue
+        mesh = obj.data
+        if len(mesh.loops) != target.loop_count:
+            raise WriteError(f"mesh '{mesh.name}' changed during the bake; bake again")
+        existing = mesh.attributes.get(attribute)
+        if existing is not None and mesh.color_attributes.get(attribute) is None:
+            raise WriteError(f"mesh '{mesh.name}' has a {existing.data_type} attribute named '{attribute}' that "
+                             "is not a colour attribute; choose another attribute name")
+        if mesh.name in owner:
+            notes.append(f"mesh '{mesh.name}' is shared by '{owner[mesh.name]}' and '{target.object_name}': "
+                         f"it shows the lighting of '{owner[mesh.name]}' (make it single user to bake each)")
+            continue
+        owner[mesh.name] = target.object_name
+        chosen.append(target)
+    return chosen, notes
+
+
+def write(targets: list[MeshTarget], corner_colors: np.ndarray, attribute: str, depsgraph=None) -> list[str]:
+    """Write each target's colours (corner_colors (T, 3, 3), float) into ``attribute``; targets
+    whose topology changed get an applied copy of their evaluated mesh (needs ``depsgraph``).
+    Returns the names of the objects written."""
+    written = []
+    for target in targets:
+        obj = bpy.data.objects[target.object_name]
+        if target.topology_changed:
+            obj = _applied_copy(obj, depsgraph)
+        mesh = obj.data
+        rgba = np.ones((target.loop_count, 4), dtype=np.float32)
+        rgba[target.loops.ravel(), :3] = corner_colors[target.start:target.stop].reshape(-1, 3)
+        old = mesh.color_attributes.get(attribute)
+        if old is not None:
+            mesh.color_attributes.remove(old)
+        layer = mesh.color_attributes.new(attribute, "FLOAT_COLOR", "CORNER")
+        layer.data.foreach_set("color", np.ascontiguousarray(rgba).ravel())
+        mesh.color_attributes.active_color = layer
+        mesh.color_attributes.render_color_index = mesh.color_attributes.active_color_index
+        mesh.update()
+        written.append(obj.name)
+    return written
+
+
+def _applied_copy(obj, depsgraph):
+    """A new object beside ``obj`` holding its evaluated mesh (modifiers applied), none of them."""
+    mesh = bpy.data.meshes.new_from_object(obj.evaluated_get(depsgraph))
+    mesh.name = f"{obj.data.name} baked"
+    copy = bpy.data.objects.new(f"{obj.name} baked", mesh)
+    copy.matrix_world = obj.matrix_world
+    for collection in obj.users_collection:
+        collection.objects.link(copy)
+    obj.hide_render = obj.hide_viewport = True
+    return copy
+
+
+def clear(objects, attribute: str) -> list[str]:
+    """Remove ``attribute`` (a colour attribute only) from the meshes of ``objects``; the names
+    of the meshes it was removed from."""
+    cleared = []
+    for obj in objects:
+        if obj.type != "MESH":
+            continue
+        layer = obj.data.color_attributes.get(attribute)
+        if layer is not None and obj.data.name not in cleared:
+            obj.data.color_attributes.remove(layer)
+            cleared.append(obj.data.name)
+    return cleared

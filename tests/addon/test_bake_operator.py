@@ -1,0 +1,197 @@
+"""The bake as users meet it: the attribute written (and nothing else), all meshes or none,
+cancel changes nothing, undo restores, a second bake gives the same colours, a saved file keeps
+them, and what the report says about approximations."""
+
+import bpy
+import numpy as np
+import pytest
+
+from tests.addon.blender_scenes import (
+    bake_in_background, corner_colours, diffuse_material, emission_material, grid_object, light_object,
+)
+
+EXACT = 1e-6  # colour attributes store float32: 6e-8 relative, plus the sums in float64
+
+
+@pytest.fixture
+def room():
+    """A floor lit by a sun and a glowing panel above it; the floor carries a colour attribute of
+    its own ("Col") that a bake must not touch."""
+    floor = grid_object("Floor", material=diffuse_material("Floor", (0.6, 0.5, 0.4)))
+    col = floor.data.color_attributes.new("Col", "BYTE_COLOR", "POINT")
+    col.data.foreach_set("color", np.full(len(floor.data.vertices) * 4, 0.25, dtype=np.float32))
+    grid_object("Panel", 1.0, 2, location=(0, 0, 1.0), material=emission_material("Glow", (1, 0.9, 0.8), 5.0),
+                facing_down=True)
+    light_object("Sun", "SUN", (0, 0, 5), 2.0, rotation=(0.3, 0, 0))
+    return floor
+
+
+def attribute_names(obj) -> list[str]:
+    return sorted(attribute.name for attribute in obj.data.attributes)
+
+
+def test_bake_writes_one_active_float_corner_attribute_per_mesh(room):
+    before = attribute_names(room)
+    assert bake_in_background() == {"FINISHED"}
+    assert attribute_names(room) == sorted(before + ["Radiosity"])
+    layer = room.data.color_attributes["Radiosity"]
+    assert (layer.data_type, layer.domain) == ("FLOAT_COLOR", "CORNER")
+    assert room.data.color_attributes.active_color.name == "Radiosity"
+    col = np.empty(len(room.data.vertices) * 4, dtype=np.float32)
+    room.data.color_attributes["Col"].data.foreach_get("color", col)
+    np.testing.assert_allclose(col, 0.25, atol=1 / 255)  # untouched
+    assert "Radiosity" in bpy.data.objects["Panel"].data.color_attributes
+    assert "Baked radiosity" in bpy.context.scene.radiosity.last_report
+
+
+def test_second_bake_replaces_only_its_attribute_with_the_same_colours(room):
+    bake_in_background()
+    _, first = corner_colours(room)
+    names = attribute_names(room)
+    bake_in_background()
+    _, second = corner_colours(room)
+    assert attribute_names(room) == names
+    np.testing.assert_array_equal(first, second)
+
+
+def test_lighting_only_output_is_the_light_before_the_surface_colour(room):
+    bake_in_background()
+    _, full = corner_colours(room)
+    bpy.context.scene.radiosity.output = "LIGHTING"
+    bake_in_background()
+    _, lighting = corner_colours(room)
+    np.testing.assert_allclose(full[:, :3], np.array([0.6, 0.5, 0.4]) * lighting[:, :3], rtol=EXACT)
+
+
+def test_custom_attribute_name(room):
+    bpy.context.scene.radiosity.attribute_name = "GI"
+    bake_in_background()
+    assert "GI" in room.data.color_attributes and "Radiosity" not in room.data.color_attributes
+
+
+def test_a_name_taken_by_another_kind_of_attribute_stops_the_bake_before_any_write(room):
+    """All meshes or none: the panel could be written, the floor cannot, so neither is."""
+    room.data.attributes.new("Radiosity", "FLOAT", "POINT")
+    with pytest.raises(RuntimeError, match="not a colour attribute"):
+        bpy.ops.radiosity.bake()
+    assert "Radiosity" not in bpy.data.objects["Panel"].data.color_attributes
+    assert room.data.attributes["Radiosity"].data_type == "FLOAT"
+
+
+def test_cancel_at_any_stage_changes_nothing(addon, room):
+    """The operator's modal steps, driven as its timer would: cancel after k slices, on patches
+    fine enough that the bake is still running then."""
+    settings = bpy.context.scene.radiosity
+    settings.preset, settings.patch_size = "CUSTOM", 0.1
+    baking = addon.radiosity_addon.baking
+    before = {obj.name: attribute_names(obj) for obj in bpy.data.objects if obj.type == "MESH"}
+    for slices in (0, 1, 3, 6):
+        prepared = baking.prepare(bpy.context.scene, bpy.context.evaluated_depsgraph_get())
+        job = prepared.job()
+        for _ in range(slices):
+            assert not job.step(0.0)
+        job.cancel()
+        with pytest.raises(addon.core.BakeCancelled):
+            job.result()
+        assert {obj.name: attribute_names(obj) for obj in bpy.data.objects if obj.type == "MESH"} == before
+
+
+def test_the_bake_is_one_undo_step():
+    """Undo itself needs a window (ed.undo's poll fails in background mode), so what is checked
+    here is what makes the bake one undo step: the operator registers undo, and its only change to
+    the file happens in one call at the end (see test_cancel_at_any_stage_changes_nothing)."""
+    assert "UNDO" in bpy.types.RADIOSITY_OT_bake.bl_options
+    assert "UNDO" in bpy.types.RADIOSITY_OT_clear.bl_options
+
+
+def test_a_saved_and_reopened_file_keeps_the_colours(room, tmp_path):
+    bake_in_background()
+    _, colours = corner_colours(room)
+    path = str(tmp_path / "baked.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.read_homefile(use_factory_startup=True, use_empty=True)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    _, reopened = corner_colours(bpy.data.objects["Floor"])
+    np.testing.assert_array_equal(reopened, colours)
+    assert bpy.context.scene.radiosity.attribute_name == "Radiosity"
+
+
+def test_clear_removes_only_the_baked_attribute(room):
+    bake_in_background()
+    assert bpy.ops.radiosity.clear() == {"FINISHED"}
+    assert "Radiosity" not in room.data.color_attributes and "Col" in room.data.color_attributes
+
+
+def test_shared_mesh_is_written_once_with_a_note(addon):
+    material = diffuse_material("Grey", (0.5, 0.5, 0.5))
+    first = grid_object("First", 1.0, 2, material=material)
+    second = bpy.data.objects.new("Second", first.data)
+    second.location = (3, 0, 0)
+    bpy.context.scene.collection.objects.link(second)
+    light_object("Sun", "SUN", (0, 0, 5), 2.0)
+    baking = addon.radiosity_addon.baking
+    prepared = baking.prepare(bpy.context.scene, bpy.context.evaluated_depsgraph_get())
+    outcome = baking.finish(prepared, baking.run_straight(prepared, echo=False), bpy.context.evaluated_depsgraph_get())
+    assert len(outcome.written) == 1 and "Radiosity" in first.data.color_attributes
+    assert any("shared by" in note for note in outcome.notes)
+
+
+@pytest.mark.parametrize("policy", ["SKIP", "COPY"])
+def test_a_modifier_that_changes_topology(addon, policy):
+    floor = grid_object("Floor", 2.0, 2, material=diffuse_material("Grey", (0.5, 0.5, 0.5)))
+    floor.modifiers.new("Subdivide", "SUBSURF").levels = 1
+    light_object("Sun", "SUN", (0, 0, 5), 2.0)
+    bpy.context.scene.radiosity.modified_topology = policy
+    baking = addon.radiosity_addon.baking
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    prepared = baking.prepare(bpy.context.scene, depsgraph)
+    outcome = baking.finish(prepared, baking.run_straight(prepared, echo=False), depsgraph)
+    if policy == "SKIP":
+        assert outcome.written == [] and "Radiosity" not in floor.data.color_attributes
+        assert any("change the topology" in note for note in outcome.notes)
+    else:
+        copy = bpy.data.objects[outcome.written[0]]
+        assert copy is not floor and len(copy.data.loops) == 4 * len(floor.data.loops)
+        _, colours = corner_colours(copy)
+        np.testing.assert_allclose(colours[:, :3], 0.5 * 2.0 / np.pi, rtol=EXACT)
+        assert floor.hide_render
+
+
+def test_report_names_every_approximation(addon):
+    material = diffuse_material("Metal", (0.5, 0.5, 0.5), principled=True)
+    material.node_tree.nodes["Principled BSDF"].inputs["Metallic"].default_value = 1.0
+    textured = diffuse_material("Painted", (0.5, 0.5, 0.5), principled=True)
+    image = bpy.data.images.new("paint", 4, 4, float_buffer=True)
+    image.pixels.foreach_set(np.tile([0.2, 0.4, 0.6, 1.0], 16).astype(np.float32))
+    texture = textured.node_tree.nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    textured.node_tree.links.new(texture.outputs["Color"], textured.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    odd = bpy.data.materials.new("Odd")
+    odd.use_nodes = True
+    nodes = odd.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    glossy = nodes.new("ShaderNodeBsdfGlossy")
+    odd.node_tree.links.new(glossy.outputs[0], nodes["Material Output"].inputs["Surface"])
+    odd.diffuse_color = (0.3, 0.3, 0.3, 1)
+    painted = grid_object("Painted", 1.0, 1, location=(0, 0, 0), material=textured)
+    grid_object("Metal", 1.0, 1, location=(2, 0, 0), material=material)
+    grid_object("Odd", 1.0, 1, location=(4, 0, 0), material=odd)
+    curve = bpy.data.objects.new("Curve", bpy.data.curves.new("Curve", "CURVE"))
+    bpy.context.scene.collection.objects.link(curve)
+    light_object("Sun", "SUN", (0, 0, 5), 2.0)
+    baking = addon.radiosity_addon.baking
+    prepared = baking.prepare(bpy.context.scene, bpy.context.evaluated_depsgraph_get())
+    outcome = baking.finish(prepared, baking.run_straight(prepared, echo=False), bpy.context.evaluated_depsgraph_get())
+    notes = "\n".join(outcome.notes)
+    assert "'Metal': metallic 1.00 is not diffuse" in notes
+    assert "'Painted': textured Base Color averaged over image 'paint'" in notes
+    assert "'Odd': node setup not understood (ShaderNodeBsdf" in notes  # Glossy (Anisotropic in 5.0)
+    assert "1 curve object(s) skipped" in notes
+    _, colours = corner_colours(painted)
+    np.testing.assert_allclose(colours[:, :3], np.tile(np.array([0.2, 0.4, 0.6]) * 2.0 / np.pi, (len(colours), 1)),
+                               rtol=1e-6)
+
+
+def test_nothing_to_bake_is_a_clear_error():
+    with pytest.raises(RuntimeError, match="no mesh visible in renders"):
+        bpy.ops.radiosity.bake()

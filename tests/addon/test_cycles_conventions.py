@@ -1,0 +1,136 @@
+"""Each light type, emissive meshes and the world colour, read from real Blender data and baked
+through the operator, against Cycles' conventions (shared/CYCLES.md, measured with Blender
+5.0.1; ratios 1.0000 +- 0.0008):
+
+    emission colour c, strength S          S c
+    point, power P                         rho P cos / (4 pi^2 r^2)
+    spot                                   the same inside the cone (times Cycles' blend)
+    sun, strength E                        rho E cos / pi
+    area, power P, area A                  rho P / (pi A) F(point -> light)
+    world colour C, strength k             rho C k on an open upward plane
+
+The floor cannot see itself, so it shows direct light only and the formulas are exact. Colours
+are evaluated NODE_INSET = 1e-3 of the way into each vertex's faces; on these 0.5 m cells that
+moves a point by 0.35 mm and its value by under 2e-3 (the tolerance, well inside the 1 % asked).
+"""
+
+import math
+
+import bpy
+import numpy as np
+import pytest
+
+from tests.addon.blender_scenes import (
+    bake_in_background, corner_colours, diffuse_material, emission_material, grid_object, light_object, world_colour,
+)
+from tests.core.test_form_factor_closed_forms import b3_anywhere, b12
+
+RHO = np.array([0.5, 0.4, 0.3])
+RTOL = 2e-3
+EXACT = 1e-6  # colour attributes store float32: 6e-8 relative, plus the sums in float64
+
+
+@pytest.fixture
+def floor():
+    """A 4 m x 4 m floor of 8 x 8 quads at z = 0, facing up, diffuse of reflectance RHO."""
+    return grid_object("Floor", material=diffuse_material("Floor", RHO))
+
+
+def baked(obj) -> tuple[np.ndarray, np.ndarray]:
+    assert bake_in_background() == {"FINISHED"}
+    points, colours = corner_colours(obj)
+    np.testing.assert_array_equal(colours[:, 3], 1.0)
+    return points, colours[:, :3]
+
+
+def test_emissive_surface_bakes_to_strength_times_colour():
+    colour, strength = np.array([0.2, 0.5, 1.0]), 3.0
+    panel = grid_object("Panel", 1.0, 2, material=emission_material("Glow", colour, strength))
+    _, colours = baked(panel)
+    np.testing.assert_allclose(colours, np.tile(strength * colour, (len(colours), 1)), rtol=EXACT)
+
+
+def test_emission_shines_from_both_sides_of_a_mesh(floor):
+    """A 1 m square emitter at 1 m facing up (away from the floor) still lights it, as in Cycles."""
+    grid_object("Panel", 1.0, 1, location=(0, 0, 1), material=emission_material("Glow", (1, 1, 1), 2.0))
+    points, colours = baked(floor)
+    centre = np.linalg.norm(points[:, :2], axis=1) < 1e-9
+    np.testing.assert_allclose(colours[centre], np.tile(RHO * 2.0 * b3_anywhere(0, 0, -.5, .5, -.5, .5, 1.0),
+                                                        (centre.sum(), 1)), rtol=RTOL)
+
+
+def test_point_light(floor):
+    lamp = light_object("Lamp", "POINT", (0.3, -0.2, 1.5), 100.0, colour=(1.0, 0.5, 0.2), shadow_soft_size=0.0)
+    points, colours = baked(floor)
+    offset = np.array(lamp.location) - points
+    r2 = (offset**2).sum(axis=1)
+    expected = RHO * 100.0 * np.array(lamp.data.color) * (offset[:, 2] / np.sqrt(r2) / (4 * math.pi**2 * r2))[:, None]
+    np.testing.assert_allclose(colours, expected, rtol=RTOL)
+
+
+def test_spot_light_inside_its_cone_and_beyond(floor):
+    spot = light_object("Spot", "SPOT", (0.0, 0.0, 1.0), 200.0, spot_size=math.radians(90), spot_blend=0.3,
+                        shadow_soft_size=0.0)
+    points, colours = baked(floor)
+    offset = np.array(spot.location) - points
+    distance = np.linalg.norm(offset, axis=1)
+    cosine = offset[:, 2] / distance
+    cos_half = math.cos(spot.data.spot_size / 2)
+    t = np.clip((cosine - cos_half) / ((1 - cos_half) * spot.data.spot_blend), 0, 1)
+    mask = t * t * (3 - 2 * t)
+    assert (mask == 1).sum() > 10 and (mask == 0).sum() > 10
+    expected = RHO * (200.0 * mask * cosine / (4 * math.pi**2 * distance**2))[:, None]
+    np.testing.assert_allclose(colours, expected, rtol=RTOL, atol=1e-4)
+
+
+def test_sun_light(floor):
+    sun = light_object("Sun", "SUN", (0, 0, 5), 3.0, rotation=(0.4, 0.2, 0.0))
+    bpy.context.view_layer.update()
+    direction = -np.array(sun.matrix_world)[:3, 2]
+    points, colours = baked(floor)
+    np.testing.assert_allclose(colours, np.tile(RHO * 3.0 * -direction[2] / math.pi, (len(colours), 1)), rtol=EXACT)
+
+
+@pytest.mark.parametrize("shape", ["SQUARE", "RECTANGLE"])
+def test_area_light(floor, shape):
+    size_y = 0.5 if shape == "RECTANGLE" else 1.0
+    light_object("Area", "AREA", (0.2, 0.1, 1.2), 30.0, shape=shape, size=1.0, size_y=size_y)
+    points, colours = baked(floor)
+    radiance = 30.0 / (math.pi * 1.0 * size_y)
+    factors = np.array([b3_anywhere(x, y, -0.3, 0.7, 0.1 - size_y / 2, 0.1 + size_y / 2, 1.2) for x, y, _ in points])
+    np.testing.assert_allclose(colours, RHO * radiance * factors[:, None], rtol=RTOL)
+
+
+def test_disk_area_light_on_its_axis(floor):
+    light_object("Disk", "AREA", (0.0, 0.0, 0.8), 10.0, shape="DISK", size=1.0)
+    points, colours = baked(floor)
+    centre = np.linalg.norm(points[:, :2], axis=1) < 1e-9
+    radiance = 10.0 / (math.pi * math.pi * 0.25)
+    np.testing.assert_allclose(colours[centre], np.tile(RHO * radiance * b12(0.5, 0.8), (centre.sum(), 1)), rtol=RTOL)
+
+
+def test_world_colour_lights_an_open_plane(floor):
+    world_colour((0.2, 0.4, 0.8), 1.5)
+    _, colours = baked(floor)
+    np.testing.assert_allclose(colours, np.tile(RHO * np.array([0.2, 0.4, 0.8]) * 1.5, (len(colours), 1)), rtol=EXACT)
+
+
+def test_principled_base_colour_is_the_reflectance():
+    floor = grid_object("Floor", material=diffuse_material("Floor", RHO, principled=True))
+    light_object("Sun", "SUN", (0, 0, 5), 2.0)
+    _, colours = baked(floor)
+    np.testing.assert_allclose(colours, np.tile(RHO * 2.0 / math.pi, (len(colours), 1)), rtol=EXACT)
+
+
+def test_no_material_is_blenders_default_grey():
+    floor = grid_object("Floor")
+    light_object("Sun", "SUN", (0, 0, 5), 2.0)
+    _, colours = baked(floor)
+    np.testing.assert_allclose(colours, 0.8 * 2.0 / math.pi, rtol=EXACT)
+
+
+@pytest.mark.skipif("exposure" not in bpy.types.Light.bl_rna.properties, reason="this Blender has no light exposure")
+def test_light_exposure_doubles_per_stop(floor):
+    light_object("Sun", "SUN", (0, 0, 5), 2.0, exposure=1.0)
+    _, colours = baked(floor)
+    np.testing.assert_allclose(colours, np.tile(RHO * 4.0 / math.pi, (len(colours), 1)), rtol=EXACT)
