@@ -1,7 +1,10 @@
-"""Every ray of the project goes through here: segment occlusion and nearest hits over Embree.
+"""Every ray of the project goes through here: segment occlusion and nearest hits, traced by
+Embree (``embreex``) or, where that cannot be imported, by the slower ``numpy_tracer``; both
+answer the same queries (``EmbreeScene.run``) on the same float32 triangles.
 
 The triangles are re-centred and scaled to unit size before they become float32 for Embree, and ray offsets are a fixed fraction of that unit size, so results do not
-depend on the scene's scale. embreex releases the GIL while it traces, so callers run batches from several threads.
+depend on the scene's scale. embreex releases the GIL while it traces, so callers run batches from several threads (the
+NumPy tracer is safe there too, but gains little: see ``numpy_tracer``).
 """
 
 from __future__ import annotations
@@ -9,31 +12,69 @@ from __future__ import annotations
 import threading
 
 import numpy as np
-from embreex import rtcore_scene
-from embreex.mesh_construction import TriangleMesh
+
+from .numpy_tracer import NumpyTracer
 
 # Rays start and stop this far (in unit space, where the scene's extent is 1) from their end points, so a ray does not hit the surface it leaves or the one it aims at (float32
 # resolves about 6e-8 there).
 RAY_EPSILON = 1e-5
+BACKENDS = ("embree", "numpy")
+
+
+def _import_embree():
+    """embreex's (EmbreeScene, TriangleMesh), imported only when asked for: ``core`` works
+    without it."""
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh
+
+    return rtcore_scene.EmbreeScene, TriangleMesh
+
+
+def default_backend() -> str:
+    """"embree" if embreex can be imported here, else "numpy"."""
+    try:
+        _import_embree()
+    except (ImportError, OSError):  # OSError: the wheel is there but its library does not load
+        return "numpy"
+    return "embree"
 
 
 class Visibility:
     """Ray queries against a fixed set of triangles.
 
     corners : (P, 3, 3) float, the occluding triangles (index p is what ``nearest`` returns).
+    backend : "embree", "numpy" (``numpy_tracer``), or None for ``default_backend()``; the name
+        used is ``self.backend``.
     """
 
-    def __init__(self, corners: np.ndarray) -> None:
+    def __init__(self, corners: np.ndarray, backend: str | None = None) -> None:
+        if backend is None:
+            backend = default_backend()
+        if backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {BACKENDS} or None, got {backend!r}")
+        if backend == "embree":
+            try:
+                embree_scene, triangle_mesh = _import_embree()
+            except (ImportError, OSError) as error:
+                raise ImportError(
+                    f"backend 'embree' needs the embreex package, which cannot be imported here ({error}); "
+                    "use backend='numpy', or None to take what is available"
+                ) from error
+        self.backend = backend
         points = corners.reshape(-1, 3)
         low, high = points.min(axis=0), points.max(axis=0)
         self.center = (low + high) / 2
         # unit extent: a scaled copy of a scene traces the same float32 rays (up to rounding)
         self.scale = 1.0 / max(float(np.linalg.norm(high - low)), np.finfo(float).tiny)
-        self._scene = rtcore_scene.EmbreeScene()
-        TriangleMesh(self._scene, self.to_unit(corners.reshape(-1, 3)).reshape(-1, 3, 3))
-        # Embree builds its BVH on the first query, holding the GIL: do it now, while the bake
-        # says it is preparing rays, rather than inside the first block of work
-        self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
+        unit_corners = self.to_unit(corners.reshape(-1, 3)).reshape(-1, 3, 3)
+        if backend == "embree":
+            self._scene = embree_scene()
+            triangle_mesh(self._scene, unit_corners)
+            # Embree builds its BVH on the first query, holding the GIL: do it now, while the bake
+            # says it is preparing rays, rather than inside the first block of work
+            self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
+        else:
+            self._scene = NumpyTracer(unit_corners)
         self.rays_cast = 0
         self._count_lock = threading.Lock()
 

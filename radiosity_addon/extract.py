@@ -71,7 +71,10 @@ def extract(depsgraph, two_sided: bool = True) -> Extraction:
         if original.hide_render or not (instance.is_instance or instance.show_self):
             continue
         if obj.type == "LIGHT":
-            _add_light(builder, obj, np.array(instance.matrix_world))
+            try:
+                _add_light(builder, obj, np.array(instance.matrix_world))
+            except ValueError as error:
+                raise ValueError(f"light '{original.name}': {error}") from error
         elif obj.type == "MESH":
             _add_mesh(builder, obj, np.array(instance.matrix_world), instance.is_instance)
         elif obj.type in ("CURVE", "SURFACE", "FONT", "META", "CURVES", "POINTCLOUD", "VOLUME"):

@@ -28,6 +28,17 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
     _job = None
     _prepared = None
     _timer = None
+    running = False  # one bake at a time: a second would write over the first
+
+    @classmethod
+    def poll(cls, context):
+        if cls.running:
+            cls.poll_message_set("A radiosity bake is running (Esc cancels it)")
+            return False
+        if context.mode != "OBJECT":
+            cls.poll_message_set("Switch to Object Mode to bake: colours written in Edit Mode would be lost")
+            return False
+        return True
 
     def execute(self, context):
         try:
@@ -50,6 +61,7 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
             self.report({"ERROR"}, f"Bake: {error}")
             return {"CANCELLED"}
         self._job = self._prepared.job()
+        RADIOSITY_OT_bake.running = True
         manager = context.window_manager
         self._timer = manager.event_timer_add(TICK_INTERVAL, window=context.window)
         manager.modal_handler_add(self)
@@ -82,6 +94,7 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
             return {"CANCELLED"}
 
     def _end(self, context) -> None:
+        RADIOSITY_OT_bake.running = False
         manager = context.window_manager
         manager.event_timer_remove(self._timer)
         manager.progress_end()

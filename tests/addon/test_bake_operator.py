@@ -195,3 +195,18 @@ def test_report_names_every_approximation(addon):
 def test_nothing_to_bake_is_a_clear_error():
     with pytest.raises(RuntimeError, match="no mesh visible in renders"):
         bpy.ops.radiosity.bake()
+
+
+def test_edit_mode_is_refused_before_anything_is_lost(room):
+    bpy.context.view_layer.objects.active = room
+    bpy.ops.object.mode_set(mode="EDIT")
+    with pytest.raises(RuntimeError, match="Object Mode"):
+        bpy.ops.radiosity.bake()
+    bpy.ops.object.mode_set(mode="OBJECT")
+    assert "Radiosity" not in room.data.color_attributes
+
+
+def test_a_bad_light_is_named(room):
+    bpy.data.objects["Sun"].data.energy = -2.0
+    with pytest.raises(RuntimeError, match="light 'Sun': strength must not be negative"):
+        bpy.ops.radiosity.bake()
