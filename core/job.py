@@ -91,5 +91,3 @@ class BakeJob:
             self._go.wait()
         return not self._cancel
 
-
-__all__ = ["BakeJob", "BakeCancelled"]

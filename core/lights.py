@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Iterable, Union
+from typing import Callable, Iterable
 
 import numpy as np
 
@@ -179,7 +179,6 @@ def area_light(shape: str, size: float, size_y: float, matrix: np.ndarray, power
     return AreaLight(triangles, power)
 
 
-Light = Union[PointLight, SpotLight, SunLight, AreaLight]
 LIGHT_TYPES = (PointLight, SpotLight, SunLight, AreaLight)
 
 

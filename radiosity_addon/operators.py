@@ -137,13 +137,4 @@ def _show_colours(context) -> None:
 
 
 classes = (RADIOSITY_OT_bake, RADIOSITY_OT_clear)
-
-
-def register() -> None:
-    for cls in classes:
-        bpy.utils.register_class(cls)
-
-
-def unregister() -> None:
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(classes)

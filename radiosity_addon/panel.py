@@ -43,59 +43,48 @@ def draw_advanced(layout, settings) -> None:
     layout.prop(settings, "modified_topology")
 
 
-class RADIOSITY_PT_render(bpy.types.Panel):
-    bl_label = "Radiosity Bake"
+class _InRenderProperties:
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
     bl_context = "render"
-    bl_options = {"DEFAULT_CLOSED"}
+
+
+class _InSidebar:
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Radiosity"
+
+
+class _Settings:
+    bl_label = "Radiosity Bake"
 
     def draw(self, context):
         draw_settings(self.layout, context.scene.radiosity)
 
 
-class RADIOSITY_PT_render_advanced(bpy.types.Panel):
+class _Advanced:
     bl_label = "Advanced"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
-    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        draw_advanced(self.layout, context.scene.radiosity)
+
+
+class RADIOSITY_PT_render(_InRenderProperties, _Settings, bpy.types.Panel):
+    bl_options = {"DEFAULT_CLOSED"}
+
+
+class RADIOSITY_PT_render_advanced(_InRenderProperties, _Advanced, bpy.types.Panel):
     bl_parent_id = "RADIOSITY_PT_render"
-    bl_options = {"DEFAULT_CLOSED"}
-
-    def draw(self, context):
-        draw_advanced(self.layout, context.scene.radiosity)
 
 
-class RADIOSITY_PT_sidebar(bpy.types.Panel):
-    bl_label = "Radiosity Bake"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Radiosity"
-
-    def draw(self, context):
-        draw_settings(self.layout, context.scene.radiosity)
+class RADIOSITY_PT_sidebar(_InSidebar, _Settings, bpy.types.Panel):
+    pass
 
 
-class RADIOSITY_PT_sidebar_advanced(bpy.types.Panel):
-    bl_label = "Advanced"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "Radiosity"
+class RADIOSITY_PT_sidebar_advanced(_InSidebar, _Advanced, bpy.types.Panel):
     bl_parent_id = "RADIOSITY_PT_sidebar"
-    bl_options = {"DEFAULT_CLOSED"}
-
-    def draw(self, context):
-        draw_advanced(self.layout, context.scene.radiosity)
 
 
 classes = (RADIOSITY_PT_render, RADIOSITY_PT_render_advanced, RADIOSITY_PT_sidebar, RADIOSITY_PT_sidebar_advanced)
-
-
-def register() -> None:
-    for cls in classes:
-        bpy.utils.register_class(cls)
-
-
-def unregister() -> None:
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(classes)
