@@ -9,7 +9,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from . import solvers
+from . import estimate, refine, solvers
 from .discretize import Discretization, discretize
 from .formfactors import METHODS, FormFactorEngine
 from .lights import DirectLighting
@@ -18,6 +18,7 @@ from .raycast import check_ray_count
 from .scene import Scene
 
 AUTO_PATCH_DIVISIONS = 4  # default patch size: the scene's extent over this (docs/benchmarks.md)
+COARSE_TOLERANCE = 10  # a level that will be refined stops at this times the tolerance
 
 
 @dataclass(frozen=True)
@@ -38,6 +39,12 @@ class BakeSettings:
     memory_budget : bytes the explicit matrix of Jacobi / Gauss-Seidel may take.
     column_cache : bytes of form-factor columns progressive refinement may keep for reshooting.
     seed : fixes the ray-casting sample positions.
+    refinement_levels : times the patches where radiosity jumps are split in four after a solve
+        (each patch at most once per level); with one or more, the change in the last level is
+        the discretisation error estimate, otherwise a looser one (``estimate``).
+    refinement_threshold : a patch is split when its radiosity differs from a neighbour's on
+        the same surface by more than this fraction of the mean radiosity of the patches that
+        do not emit.
     """
 
     patch_size: float | None = None
@@ -51,6 +58,8 @@ class BakeSettings:
     memory_budget: int = 2 << 30
     column_cache: int = 256 << 20
     seed: int = 0
+    refinement_levels: int = 0
+    refinement_threshold: float = 0.25
 
     def __post_init__(self) -> None:
         if self.patch_size is not None and not (math.isfinite(self.patch_size) and self.patch_size > 0):
@@ -63,6 +72,10 @@ class BakeSettings:
             if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 0:
                 raise ValueError(f"{name} must be a non-negative integer, got {getattr(self, name)}")
         check_ray_count(self.rays_per_form_factor)
+        if int(self.refinement_levels) != self.refinement_levels or not 0 <= self.refinement_levels <= 8:
+            raise ValueError(f"refinement_levels must be an integer from 0 to 8, got {self.refinement_levels}")
+        if not (math.isfinite(self.refinement_threshold) and self.refinement_threshold > 0):
+            raise ValueError(f"refinement_threshold must be a positive number, got {self.refinement_threshold}")
 
 
 @dataclass
@@ -91,6 +104,11 @@ def bake(
     method: "hemicube" or "raycast"; solver: "progressive", "jacobi" or "gauss_seidel";
     ``knobs`` are the fields of BakeSettings. ``progress(fraction, message)`` is called at least
     every 0.2 s; if it returns False the bake raises BakeCancelled.
+
+    The scene is solved on patches of ``patch_size``, then ``refinement_levels`` times the
+    patches whose radiosity jumps by more than ``refinement_threshold`` against a neighbour
+    are split in four and the solve goes on from where it was (``refine``). The change of the
+    corner colours in the last level is the discretisation part of ``stats["error_estimate"]``.
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -103,7 +121,8 @@ def bake(
 
     stages.stage("discretising", 0.0, 0.02)
     patch_size = settings.patch_size if settings.patch_size is not None else scene.extent / AUTO_PATCH_DIVISIONS
-    mesh = discretize(scene, patch_size, math.radians(settings.crease_angle), stages.report)
+    crease = math.radians(settings.crease_angle)
+    mesh = discretize(scene, patch_size, crease, stages.report)
     channels = 1 if scene.is_grey else 3
     seconds["discretise"], clock = _lap(clock)
 
@@ -121,27 +140,48 @@ def bake(
         seconds["direct_light"], clock = _lap(clock)
     else:
         patch_direct, node_direct = np.zeros((mesh.patch_count, 3)), np.zeros((mesh.node_count, 3))
-    # lit by the lights, a patch starts out as if it emitted what it reflects of them
-    sources = mesh.patch_emission[:, :channels] + mesh.patch_reflectance[:, :channels] * patch_direct[:, :channels]
     node_direct = node_direct[:, :channels]
 
-    if solver == "progressive":
-        solved = _solve_progressive(engine, sources, node_direct, settings, stages, start, seconds)
-    else:
-        solved = _solve_explicit(engine, sources, solver, settings, stages, start, seconds)
-    radiosity, node_lighting, solve_stats, extra_bytes = solved
-    if node_lighting is None:
-        clock = time.perf_counter()
-        stages.stage("gathering at vertices", 0.85, 1.0)
-        node_lighting = node_direct + engine.gather(
-            mesh.node_points, mesh.node_normals, radiosity, lambda f: stages.report(f)
-        )
-        seconds["gather"], _ = _lap(clock)
+    level = _Level(engine, solver, settings, channels, node_direct)
+    levels = settings.refinement_levels
+    span = (1.0 - start) / (1 + levels)
+    previous_colors = None
+    refinements = []
+    for number in range(levels + 1):
+        stages_from = start + number * span
+        if number > 0:
+            clock = time.perf_counter()
+            jumps = refine.radiosity_jumps(mesh, radiosity, crease)
+            chosen = np.flatnonzero(jumps > settings.refinement_threshold * _mean_reflected(mesh, radiosity))
+            if len(chosen) == 0:
+                break
+            stages.stage(f"refining {number} of {levels}", stages_from, stages_from + 0.05 * span)
+            mesh, origin = refine.split(mesh, chosen)
+            engine = FormFactorEngine(mesh, method, settings.hemicube_resolution, settings.rays_per_form_factor,
+                                      settings.seed, visibility=engine.visibility if method == "raycast" else None)
+            patch_direct = _refined_direct(direct, mesh, origin, patch_direct)
+            refinements.append({"split": int(len(chosen)), "patches": mesh.patch_count})
+            level.refine(engine, origin, mesh.patch_emission[:, :channels] + mesh.patch_reflectance[:, :channels]
+                         * patch_direct[:, :channels], lambda f: stages.report(f))
+            seconds["refine"] = seconds.get("refine", 0.0) + _lap(clock)[0]
+        # lit by the lights, a patch starts out as if it emitted what it reflects of them
+        sources = mesh.patch_emission[:, :channels] + mesh.patch_reflectance[:, :channels] * patch_direct[:, :channels]
+        # a level to be refined needs only roughly where light changes: it stops COARSE_TOLERANCE looser
+        tolerance = settings.tolerance * (1 if number == levels else COARSE_TOLERANCE)
+        radiosity, node_lighting = level.solve(sources, min(tolerance, 0.1), stages,
+                                               stages_from + (0.05 * span if number else 0.0), stages_from + span, seconds)
+        colors = mesh.node_emission[:, :channels] + mesh.node_reflectance[:, :channels] * node_lighting
+        change = None if previous_colors is None else estimate.level_change(mesh, colors, previous_colors)
+        previous_colors = colors
+    if change is None:
+        change = estimate.corner_patch_gap(mesh, colors, radiosity, engine.receiving_points)
     clock = time.perf_counter()
     corner_colors, triangle_radiosity, corner_lighting = _per_corner(scene, mesh, radiosity, node_lighting)
     seconds["reconstruct"], _ = _lap(clock)
     stages.report(1.0, "done", force=True)
 
+    solve_stats = level.stats
+    left = estimate.solver_error(mesh, radiosity, solve_stats)
     stats = {
         "method": method,
         "solver": solver,
@@ -151,54 +191,136 @@ def bake(
         "lights": len(scene.lights),
         "nodes": mesh.node_count,
         "channels": channels,
+        "refinements": refinements,
         "seconds": seconds | {"total": sum(seconds.values())},
         "rays_cast": engine.rays_cast,
-        "peak_memory_estimate": _base_bytes(mesh) + extra_bytes + engine.working_bytes(),
+        "peak_memory_estimate": _base_bytes(mesh) + level.extra_bytes + engine.working_bytes(),
+        "error_estimate": {
+            "unshot": left,
+            "discretisation": change,
+            "total": max(left + change, estimate.ROUNDING_FLOOR),
+        },
         **solve_stats,
     }
     return BakeResult(corner_colors, triangle_radiosity, corner_lighting, stats)
 
 
-def _solve_progressive(engine: FormFactorEngine, sources: np.ndarray, node_direct: np.ndarray,
-                       settings: BakeSettings, stages: Progress, start: float, seconds: dict):
-    """Shoot; ray casting's shots reach the nodes too (their result is the light G they
-    receive), the hemicube's are gathered after."""
-    mesh, clock = engine.mesh, time.perf_counter()
-    nodes_receive = engine.method == "raycast"
-    channels = sources.shape[1]
-    stages.stage("shooting", start, 1.0 if nodes_receive else 0.85)
-    radiosity, node_lighting, stats = solvers.progressive(
-        engine.shooting_columns, mesh.patch_areas, mesh.patch_reflectance[:, :channels], sources,
-        np.ones_like(node_direct) if nodes_receive else None,
-        node_direct if nodes_receive else None,
-        tolerance=settings.tolerance, ambient=settings.ambient, max_shots=settings.max_shots,
-        cache_bytes=settings.column_cache, report=stages.report,
-    )
-    seconds["solve"], _ = _lap(clock)
-    cache_bytes = stats["cached_columns"] * 8 * (mesh.patch_count + mesh.node_count)
-    return radiosity, node_lighting if nodes_receive else None, stats, cache_bytes
+class _Level:
+    """The solve of one discretisation, and how it goes on after the patches are refined:
+    progressive refinement resumes its ShootingState, the refined patches' light corrected by a
+    gather at their own receiving points; Jacobi and Gauss-Seidel start from the refined
+    patches' inherited radiosity."""
+
+    def __init__(self, engine: FormFactorEngine, solver: str, settings: BakeSettings, channels: int,
+                 node_direct: np.ndarray):
+        self.engine, self.solver, self.settings = engine, solver, settings
+        self.channels, self.node_direct = channels, node_direct
+        self.state: solvers.ShootingState | None = None
+        self.radiosity: np.ndarray | None = None  # the explicit solvers' last answer
+        self.stats: dict = {}
+        self.extra_bytes = 0
+
+    def refine(self, engine: FormFactorEngine, origin: np.ndarray, sources: np.ndarray, report) -> None:
+        """Move to ``engine``'s refined patches; ``origin`` maps each to the patch it came from."""
+        self.engine = engine
+        if self.state is not None:
+            state = self.state
+            patch_count = len(state.unshot)
+            inherited = state.radiosity[:patch_count][origin]
+            new = np.flatnonzero(np.bincount(origin, minlength=patch_count)[origin] > 1)  # children
+            mesh = engine.mesh
+            gathered = engine.gather(engine.receiving_points[new], mesh.patch_normals[new], inherited, report)
+            corrected = sources[new] + mesh.patch_reflectance[new, : self.channels] * gathered
+            unshot = state.unshot[origin]
+            unshot[new] += corrected - inherited[new]
+            radiosity = inherited.copy()
+            radiosity[new] = corrected
+            self.state = solvers.ShootingState(np.concatenate([radiosity, state.radiosity[patch_count:]]), unshot,
+                                               state.shots, state.power_shot, state.power_captured)
+        else:
+            self.radiosity = self.radiosity[origin]
+
+    def solve(self, sources: np.ndarray, tolerance: float, stages: Progress, begin: float, end: float,
+              seconds: dict):
+        """Patch radiosity (P, C) and the light G arriving at the nodes (N, C)."""
+        engine, settings = self.engine, self.settings
+        mesh = engine.mesh
+        clock = time.perf_counter()
+        if self.solver == "progressive":
+            nodes_receive = engine.method == "raycast"
+            if self.state is None:
+                self.state = solvers.ShootingState.start(
+                    sources, self.node_direct if nodes_receive else np.zeros((0, self.channels)))
+            stages.stage("shooting", begin, end if nodes_receive else begin + 0.8 * (end - begin))
+            radiosity, node_lighting, stats = solvers.progressive(
+                engine.shooting_columns, mesh.patch_areas, mesh.patch_reflectance[:, : self.channels], sources,
+                np.ones_like(self.node_direct) if nodes_receive else None,
+                self.node_direct if nodes_receive else None,
+                tolerance=tolerance, ambient=settings.ambient, max_shots=settings.max_shots,
+                cache_bytes=settings.column_cache, report=stages.report, state=self.state,
+            )
+            self.extra_bytes = max(self.extra_bytes, stats["cached_columns"] * 8 * (mesh.patch_count + mesh.node_count))
+            seconds["solve"] = seconds.get("solve", 0.0) + _lap(clock)[0]
+            if not nodes_receive:
+                node_lighting = self._gather(radiosity, stages, begin + 0.8 * (end - begin), end, seconds)
+        else:
+            radiosity, stats = self._solve_explicit(sources, tolerance, stages, begin, begin + 0.7 * (end - begin),
+                                                    seconds)
+            node_lighting = self._gather(radiosity, stages, begin + 0.7 * (end - begin), end, seconds)
+        self.stats = stats
+        return radiosity, node_lighting
+
+    def _gather(self, radiosity, stages: Progress, begin: float, end: float, seconds: dict) -> np.ndarray:
+        clock = time.perf_counter()
+        stages.stage("gathering at vertices", begin, end)
+        mesh = self.engine.mesh
+        gathered = self.engine.gather(mesh.node_points, mesh.node_normals, radiosity, lambda f: stages.report(f))
+        seconds["gather"] = seconds.get("gather", 0.0) + _lap(clock)[0]
+        return self.node_direct + gathered
+
+    def _solve_explicit(self, sources, tolerance: float, stages: Progress, begin: float, end: float, seconds: dict):
+        """Build the P x P matrix (within the memory budget), then Jacobi or Gauss-Seidel."""
+        engine, settings, solver = self.engine, self.settings, self.solver
+        mesh, clock = engine.mesh, time.perf_counter()
+        matrix_bytes = 8 * mesh.patch_count**2
+        if matrix_bytes > settings.memory_budget:
+            raise ValueError(
+                f"the {solver} solver needs a {mesh.patch_count:,} x {mesh.patch_count:,} form-factor matrix "
+                f"({matrix_bytes / 2**30:.2f} GiB), over the memory budget of "
+                f"{settings.memory_budget / 2**30:.2f} GiB; "
+                "use solver='progressive', a larger patch_size, fewer refinement_levels, or raise memory_budget"
+            )
+        middle = (begin + end) / 2
+        stages.stage("form factors", begin, middle)
+        matrix = engine.patch_rows(np.arange(mesh.patch_count), lambda f: stages.report(f, "matrix"))
+        seconds["form_factors"] = seconds.get("form_factors", 0.0) + _lap(clock)[0]
+        clock = time.perf_counter()
+        stages.stage("solving", middle, end)
+        iterate = solvers.jacobi if solver == "jacobi" else solvers.gauss_seidel
+        radiosity, stats = iterate(matrix, mesh.patch_reflectance[:, : self.channels], sources,
+                                   tolerance, settings.max_iterations, stages.report, self.radiosity)
+        self.radiosity = radiosity
+        self.extra_bytes = max(self.extra_bytes, matrix_bytes)
+        seconds["solve"] = seconds.get("solve", 0.0) + _lap(clock)[0]
+        return radiosity, stats
 
 
-def _solve_explicit(engine: FormFactorEngine, sources: np.ndarray, solver: str, settings: BakeSettings,
-                    stages: Progress, start: float, seconds: dict):
-    """Build the P x P matrix (within the memory budget), then Jacobi or Gauss-Seidel."""
-    mesh, clock = engine.mesh, time.perf_counter()
-    matrix_bytes = 8 * mesh.patch_count**2
-    if matrix_bytes > settings.memory_budget:
-        raise ValueError(
-            f"the {solver} solver needs a {mesh.patch_count:,} x {mesh.patch_count:,} form-factor matrix "
-            f"({matrix_bytes / 2**30:.2f} GiB), over the memory budget of {settings.memory_budget / 2**30:.2f} GiB; "
-            "use solver='progressive', a larger patch_size, or raise memory_budget"
-        )
-    stages.stage("form factors", start, 0.6)
-    matrix = engine.patch_rows(np.arange(mesh.patch_count), lambda f: stages.report(f, "matrix"))
-    seconds["form_factors"], clock = _lap(clock)
-    stages.stage("solving", 0.6, 0.85)
-    iterate = solvers.jacobi if solver == "jacobi" else solvers.gauss_seidel
-    radiosity, stats = iterate(matrix, mesh.patch_reflectance[:, :sources.shape[1]], sources,
-                               settings.tolerance, settings.max_iterations, stages.report)
-    seconds["solve"], _ = _lap(clock)
-    return radiosity, None, stats, matrix_bytes
+def _refined_direct(direct: DirectLighting, mesh: Discretization, origin: np.ndarray,
+                    patch_direct: np.ndarray) -> np.ndarray:
+    """The patches' mean direct light, inherited, then measured again on the new children."""
+    result = patch_direct[origin]
+    if direct.empty:
+        return result
+    new = np.flatnonzero(np.bincount(origin, minlength=len(patch_direct))[origin] > 1)
+    result[new] = direct.patch_means(mesh.patch_corners[new], mesh.patch_normals[new], lambda _f: None)
+    return result
+
+
+def _mean_reflected(mesh: Discretization, radiosity: np.ndarray) -> float:
+    """Area mean of the radiosity of the patches that emit nothing (of all of them if all emit)."""
+    quiet = ~mesh.patch_emission.any(axis=1)
+    chosen = quiet if quiet.any() else np.ones_like(quiet)
+    return float(mesh.patch_areas[chosen] @ radiosity[chosen].max(axis=1) / mesh.patch_areas[chosen].sum())
 
 
 def _lap(start: float) -> tuple[float, float]:

@@ -8,7 +8,7 @@ from typing import Callable
 
 import numpy as np
 
-from . import hemicube, parallel, raycast
+from . import hemicube, parallel, raycast, receivers
 from .discretize import Discretization, discretize
 from .scene import Scene
 from .visibility import Visibility
@@ -30,7 +30,8 @@ def _quiet(_fraction: float) -> None:
 
 class FormFactorEngine:
     """Rows F(point -> every patch) and shooting columns F(every patch -> one patch) of a
-    discretised scene. A patch receives at its centroid, facing its normal."""
+    discretised scene. A patch receives at ``receiving_points`` (its centroid unless partly
+    buried: see ``receivers``), facing its normal."""
 
     def __init__(
         self,
@@ -39,7 +40,10 @@ class FormFactorEngine:
         hemicube_resolution: int = 64,
         rays_per_form_factor: int = 16,
         seed: int = 0,
+        visibility: Visibility | None = None,
     ) -> None:
+        """``visibility`` may be shared with an engine of the same scene (its triangles are
+        what occludes, whatever the patches)."""
         if method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
         self.mesh = mesh
@@ -49,7 +53,9 @@ class FormFactorEngine:
             hemicube.pixels(hemicube_resolution)  # validates the resolution
         else:
             raycast.check_ray_count(rays_per_form_factor)
-        self.visibility = Visibility(mesh.patch_corners[: mesh.front_patch_count])
+        front = mesh.front_patch_count
+        self.visibility = visibility or Visibility(mesh.patch_corners[:front], two_sided=mesh.back_of_front >= 0)
+        self.receiving_points = receivers.receiving_points(mesh, self.visibility)
         self.raycaster = None if method == "hemicube" else raycast.RayCaster(
             mesh.patch_corners, mesh.patch_normals, mesh.patch_areas, self.visibility, rays_per_form_factor, seed
         )
@@ -58,7 +64,7 @@ class FormFactorEngine:
     def _shot_receivers(self) -> tuple[np.ndarray, np.ndarray]:
         """Points and normals (P + N, 3) of everything a ray-cast shot reaches: patches, nodes."""
         mesh = self.mesh
-        return (np.concatenate([mesh.patch_centroids, mesh.node_points]),
+        return (np.concatenate([self.receiving_points, mesh.node_points]),
                 np.concatenate([mesh.patch_normals, mesh.node_normals]))
 
     @property
@@ -113,7 +119,7 @@ class FormFactorEngine:
     def patch_rows(self, patches: np.ndarray, report: Report = _quiet) -> np.ndarray:
         """(m, P) F[p, q] for the receiving patches ``patches``."""
         mesh = self.mesh
-        return self.rows(mesh.patch_centroids[patches], mesh.patch_normals[patches], report)
+        return self.rows(self.receiving_points[patches], mesh.patch_normals[patches], report)
 
     def shooting_columns(self, sources: np.ndarray, report: Report = _quiet) -> tuple[np.ndarray, np.ndarray]:
         """F[r, q] for every receiver r and each patch q in ``sources`` (k,): what q shoots; and
@@ -127,7 +133,7 @@ class FormFactorEngine:
         """
         mesh = self.mesh
         if self.method == "hemicube":
-            rows = self.rows(mesh.patch_centroids[sources], mesh.patch_normals[sources], report)
+            rows = self.rows(self.receiving_points[sources], mesh.patch_normals[sources], report)
             columns = np.divide(rows.T * mesh.patch_areas[sources], mesh.patch_areas[:, None],
                                 out=np.zeros((mesh.patch_count, len(sources))), where=mesh.patch_areas[:, None] > 0)
             return columns, rows.sum(axis=1)
@@ -146,7 +152,7 @@ class FormFactorEngine:
             parts.append(part)
             report(len(parts) / len(chunks))
         seen, factors = hemicube.visible_patches(
-            mesh.patch_centroids[sources], mesh.patch_normals[sources], CAPTURE_RESOLUTION, self.visibility, mesh
+            self.receiving_points[sources], mesh.patch_normals[sources], CAPTURE_RESOLUTION, self.visibility, mesh
         )
         return np.concatenate(parts), (factors * (seen >= 0)).sum(axis=1)
 

@@ -16,6 +16,7 @@ class Preset(NamedTuple):
     patch_divisions: int  # patch size = scene extent / this
     rays_per_form_factor: int
     tolerance: float
+    refinement_levels: int = 0
 
 
 PRESETS: dict[str, Preset] = {
@@ -35,4 +36,5 @@ def preset_knobs(name: str, extent: float) -> dict:
         "patch_size": extent / preset.patch_divisions,
         "rays_per_form_factor": preset.rays_per_form_factor,
         "tolerance": preset.tolerance,
+        "refinement_levels": preset.refinement_levels,
     }

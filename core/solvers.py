@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -28,6 +29,23 @@ def _effort(fraction_left: float, tolerance: float) -> float:
     return min(max(math.log(fraction_left) / math.log(tolerance), 0.0), 1.0)
 
 
+@dataclass
+class ShootingState:
+    """Where progressive refinement stands: radiosity (P + N, C) of the patches then the passive
+    points, without the ambient term; unshot (P, C), signed (a refined patch may have received
+    too much); and the power shot so far, all of it and the part that landed on patches."""
+
+    radiosity: np.ndarray
+    unshot: np.ndarray
+    shots: int = 0
+    power_shot: float = 0.0
+    power_captured: float = 0.0
+
+    @classmethod
+    def start(cls, emission: np.ndarray, passive_emission: np.ndarray) -> "ShootingState":
+        return cls(np.concatenate([emission, passive_emission]), emission.copy())
+
+
 def progressive(
     columns: Callable[[np.ndarray, Callable[[float], None]], tuple[np.ndarray, np.ndarray]],
     areas: np.ndarray,
@@ -41,22 +59,25 @@ def progressive(
     cache_bytes: int = 256 << 20,
     batch: int = 16,
     report: Report = _quiet,
+    state: ShootingState | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Progressive refinement (Cohen, Chen, Wallace and Greenberg 1988): repeatedly shoot the
-    patch q with the most unshot power A_q sum_c U_q,c to every receiver r:
+    patch q with the most unshot power A_q sum_c |U_q,c| to every receiver r:
 
         dB_r = rho_r F[r, q] U_q;   B_r += dB_r;   U_r += dB_r (patches only);   U_q = 0.
 
     Receivers are the P patches, then N passive points that receive but never shoot (the
     vertices of Wallace et al. 1989), given by ``passive_reflectance`` and ``passive_emission``
     (N, C). ``columns(q, tick)`` returns F[:, q] (P + N, k) for the k patches q, and the share
-    of each one's light that lands on a patch (k,), calling ``tick(fraction done)`` as it goes. When the shooter's
-    column is not at hand, the columns of the next brightest shooters are fetched with it
-    (``batch`` at most), since they are about to shoot. Columns are kept while they fit
-    ``cache_bytes``, so reshooting is cheap in small scenes; memory otherwise stays O(P + N).
+    of each one's light that lands on a patch (k,), calling ``tick(fraction done)`` as it goes.
+    When the shooter's column is not at hand, the columns of the next brightest shooters are
+    fetched with it (``batch`` at most), since they are about to shoot. Columns are kept while
+    they fit ``cache_bytes``, so reshooting is cheap in small scenes; memory otherwise stays
+    O(P + N). ``state`` (ShootingState) resumes an earlier solve and is updated in place;
+    without it the solve starts from B = U = E.
 
     Stops when the light still unshot, with all its future bounces in a closed scene,
-    sum A U / (1 - rho_mean), is at most ``tolerance`` of all the light, distributed and not
+    sum A |U| / (1 - rho_mean), is at most ``tolerance`` of all the light, distributed and not
     (where light escapes, that overestimates what is left: the stop is conservative). That
     share is reported as ``unshot_fraction``.
 
@@ -65,68 +86,63 @@ def progressive(
     shot so far that landed on patches (as ``columns`` measures it per shooter, weighted by
     the shot's power): 1 in a closed scene, as Cohen et al. assume, and less where light
     escapes. It restores the total energy of a closed scene of uniform reflectance, and every
-    value when the unshot light is uniform. (c estimates the light already shot, so it is not used to stop: a shooter
-    yet to shoot may reach far more.)
+    value when the unshot light is uniform. (c estimates the light already shot, so it is not
+    used to stop: a shooter yet to shoot may reach far more.)
     Returns B of the patches (P, C), B of the passive points (N, C) and the statistics.
     """
     patch_count, channels = emission.shape
     if passive_emission is None:
         passive_reflectance = passive_emission = np.zeros((0, channels))
+    if state is None:
+        state = ShootingState.start(emission, passive_emission)
     all_reflectance = np.concatenate([reflectance, passive_reflectance])
-    radiosity = np.concatenate([emission, passive_emission])
-    unshot = emission.copy()
+    radiosity, unshot = state.radiosity, state.unshot
     total_area = areas.sum()
     mean_reflectance = (areas @ reflectance) / total_area
     gain = 1.0 / (1.0 - mean_reflectance)  # (C,) all future bounces, closed scene
-    reflected_area = areas[:, None] * reflectance  # (P, C)
-    power_shot = power_captured = 0.0
-    cache: dict[int, tuple[np.ndarray, np.ndarray, float]] = {}  # q: F[:, q], F[:P, q] @ A rho, capture
+    cache: dict[int, tuple[np.ndarray, float]] = {}  # q: F[:, q], capture
     cache_limit = max(batch, cache_bytes // (8 * len(radiosity)))
-    shots = 0
-    limit = max_shots if max_shots is not None else np.inf  # it converges for rho < 1: the caller may cancel
-    undistributed = 1.0
-    while shots < limit:
-        if shots % 1000 == 0:  # exact sums now and then; updated per shot in between
-            remaining = float(areas @ unshot @ gain)
-            distributed = float(areas @ radiosity[:patch_count].sum(axis=1))
-        undistributed = remaining / (remaining + distributed) if remaining > 0 else 0.0
-        if undistributed <= tolerance:
-            break
-        power = areas * unshot.sum(axis=1)
+    limit = state.shots + (max_shots if max_shots is not None else np.inf)  # converges for rho < 1
+    shots_before = state.shots
+
+    def undistributed() -> float:
+        remaining = float(areas @ np.abs(unshot) @ gain)
+        distributed = float(areas @ radiosity[:patch_count].sum(axis=1))
+        return remaining / (remaining + distributed) if remaining > 0 else 0.0
+
+    left = undistributed()
+    while state.shots < limit and left > tolerance:
+        power = areas * np.abs(unshot).sum(axis=1)
         source = int(np.argmax(power))
         shooting = unshot[source].copy()
         if source not in cache:
             brightest = np.argsort(-power)[: batch + len(cache)]
             wanted = [source] + [int(q) for q in brightest if q != source and q not in cache][: batch - 1]
-            effort, detail = _effort(undistributed, tolerance), f"{shots} shots, form factors of {len(wanted)} more"
+            effort, detail = _effort(left, tolerance), f"{state.shots} shots, form factors of {len(wanted)} more"
             fetched, captures = columns(np.array(wanted), lambda _done: report(effort, detail))
             for q, factors, capture in zip(wanted, fetched.T, np.clip(captures, 0.0, 1.0)):
-                cache[q] = (factors, factors[:patch_count] @ reflected_area, float(capture))
-        factors, reflected, capture = cache[source]
+                cache[q] = (factors, float(capture))
+        factors, capture = cache[source]
         while len(cache) > cache_limit:  # forget the oldest columns first, never the prefetched
             del cache[next(iter(cache))]
-        shot_power = areas[source] * shooting.sum()
-        power_shot += shot_power
-        power_captured += shot_power * capture
+        shot_power = areas[source] * np.abs(shooting).sum()
+        state.power_shot += shot_power
+        state.power_captured += shot_power * capture
         received = all_reflectance * (factors[:, None] * shooting[None, :])
         radiosity += received
         unshot += received[:patch_count]
         unshot[source] = 0.0
-        distributed += float(shooting @ reflected)
-        remaining += float((shooting * reflected) @ gain - areas[source] * shooting @ gain)
-        shots += 1
-        report(_effort(undistributed, tolerance), f"{shots} shots, {100 * undistributed:.2g}% unshot")
-    remaining = float(areas @ unshot @ gain)  # the state after the last shot, exactly
-    distributed = float(areas @ radiosity[:patch_count].sum(axis=1))
-    undistributed = remaining / (remaining + distributed) if remaining > 0 else 0.0
-    captured = power_captured / power_shot if power_shot > 0 else 1.0
+        state.shots += 1
+        left = undistributed()
+        report(_effort(left, tolerance), f"{state.shots} shots, {100 * left:.2g}% unshot")
+    captured = state.power_captured / state.power_shot if state.power_shot > 0 else 1.0
     ambient_term = (areas @ unshot) / total_area * captured / (1.0 - captured * mean_reflectance)
-    if ambient:
-        radiosity += all_reflectance * ambient_term
-    return radiosity[:patch_count], radiosity[patch_count:], {
-        "shots": shots,
-        "converged": undistributed <= tolerance,
-        "unshot_fraction": undistributed,
+    result = radiosity + all_reflectance * ambient_term if ambient else radiosity.copy()
+    return result[:patch_count], result[patch_count:], {
+        "shots": state.shots,
+        "shots_this_solve": state.shots - shots_before,
+        "converged": left <= tolerance,
+        "unshot_fraction": left,
         "ambient": (ambient_term if ambient else 0 * ambient_term).tolist(),
         "captured_fraction": captured,
         "cached_columns": len(cache),
@@ -154,11 +170,13 @@ def jacobi(
     tolerance: float = 1e-3,
     max_iterations: int = 1_000_000,
     report: Report = _quiet,
+    initial: np.ndarray | None = None,
 ) -> tuple[np.ndarray, dict]:
     """Jacobi iteration B <- E + rho * (F @ B), that is B <- B + r for the residual
-    r = E + rho F B - B. Stops on the error bound of ``_iterate``."""
+    r = E + rho F B - B, from B = ``initial`` (default E). Stops on the error bound of
+    ``_iterate``."""
     return _iterate(lambda radiosity, residual: radiosity + residual, "iteration",
-                    matrix, reflectance, emission, tolerance, max_iterations, report)
+                    matrix, reflectance, emission, tolerance, max_iterations, report, initial)
 
 
 def gauss_seidel(
@@ -168,9 +186,11 @@ def gauss_seidel(
     tolerance: float = 1e-3,
     max_iterations: int = 1_000_000,
     report: Report = _quiet,
+    initial: np.ndarray | None = None,
 ) -> tuple[np.ndarray, dict]:
     """Gauss-Seidel: each sweep updates B_p = E_p + rho_p sum_q F_pq B_q in place, row by row,
-    using the newest values. Stops on the error bound of ``_iterate``."""
+    using the newest values, from B = ``initial`` (default E). Stops on the error bound of
+    ``_iterate``."""
     last_report = [time.perf_counter()]
 
     def sweep(radiosity, residual):
@@ -182,15 +202,16 @@ def gauss_seidel(
                 report(effort, f"sweep row {row} of {len(matrix)}")
         return radiosity
 
-    return _iterate(sweep, "sweep", matrix, reflectance, emission, tolerance, max_iterations, report)
+    return _iterate(sweep, "sweep", matrix, reflectance, emission, tolerance, max_iterations, report, initial)
 
 
-def _iterate(sweep, name, matrix, reflectance, emission, tolerance, max_iterations, report) -> tuple[np.ndarray, dict]:
+def _iterate(sweep, name, matrix, reflectance, emission, tolerance, max_iterations, report,
+             initial=None) -> tuple[np.ndarray, dict]:
     """Run ``sweep(B, r)`` until the error bound is at most ``tolerance`` * |B|_inf: with
     q = max_p rho_p sum_q |F_pq| < 1 (a contraction), |B - B*|_inf <= |r|_inf / (1 - q)."""
     factor = _bound_factor(matrix, reflectance)
     _check_contraction(factor)
-    radiosity = emission.copy()
+    radiosity = (emission if initial is None else initial).copy()
     iterations = 0
     while True:
         residual = emission + reflectance * (matrix @ radiosity) - radiosity

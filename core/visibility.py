@@ -13,6 +13,7 @@ import threading
 
 import numpy as np
 
+from .geometry import areas_and_normals
 from .numpy_tracer import NumpyTracer
 
 # Rays start and stop this far (in unit space, where the scene's extent is 1) from their end points, so a ray does not hit the surface it leaves or the one it aims at (float32
@@ -45,9 +46,11 @@ class Visibility:
     corners : (P, 3, 3) float, the occluding triangles (index p is what ``nearest`` returns).
     backend : "embree", "numpy" (``numpy_tracer``), or None for ``default_backend()``; the name
         used is ``self.backend``.
+    triangle_normals : (P, 3) their unit normals (zero for a zero-area triangle).
+    two_sided : (P,) bool, which of them have two faces (none unless given): ``receivers`` only.
     """
 
-    def __init__(self, corners: np.ndarray, backend: str | None = None) -> None:
+    def __init__(self, corners: np.ndarray, backend: str | None = None, two_sided: np.ndarray | None = None) -> None:
         if backend is None:
             backend = default_backend()
         if backend not in BACKENDS:
@@ -67,6 +70,8 @@ class Visibility:
         # unit extent: a scaled copy of a scene traces the same float32 rays (up to rounding)
         self.scale = 1.0 / max(float(np.linalg.norm(high - low)), np.finfo(float).tiny)
         unit_corners = self.to_unit(corners.reshape(-1, 3)).reshape(-1, 3, 3)
+        self.triangle_normals = areas_and_normals(np.asarray(corners, dtype=np.float64))[1]
+        self.two_sided = np.zeros(len(unit_corners), dtype=bool) if two_sided is None else np.asarray(two_sided, bool)
         if backend == "embree":
             self._scene = embree_scene()
             triangle_mesh(self._scene, unit_corners)

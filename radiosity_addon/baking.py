@@ -76,10 +76,10 @@ def finish(prepared: Prepared, result, depsgraph) -> Outcome:
 
 
 def describe(stats: dict, objects: int, prepared: Prepared) -> str:
-    """One line: what was baked, how finely, how long, how much light was left."""
-    left = stats.get("unshot_fraction", stats.get("error_bound"))
-    left_text = f", {100 * left:.2g}% of the light unshot" if "unshot_fraction" in stats else (
-        f", error bound {100 * left:.2g}%" if left is not None else "")
+    """One line: what was baked, how finely, how long, how far from converged it may be."""
+    estimate = stats["error_estimate"]
+    left_text = (f", estimated error {100 * estimate['total']:.2g}% (solver {100 * estimate['unshot']:.2g}%, "
+                 f"patches {100 * estimate['discretisation']:.2g}%)")
     output = "lighting" if prepared.lighting_only else "radiosity"
     return (f"Baked {output} into '{prepared.attribute}' on {objects} object(s): {stats['triangles']:,} triangles, "
             f"{stats['patches']:,} patches, {stats['nodes']:,} vertex colours, {stats['lights']} light object(s), "

@@ -16,6 +16,7 @@ def draw_settings(layout, settings) -> None:
         layout.prop(settings, "patch_size")
         layout.prop(settings, "rays" if settings.method == "raycast" else "hemicube_resolution")
         layout.prop(settings, "tolerance")
+        layout.prop(settings, "refinement_levels")
     else:
         preset = PRESETS[settings.preset]
         column = layout.column(align=True)

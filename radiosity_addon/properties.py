@@ -66,6 +66,11 @@ class RadiositySettings(bpy.types.PropertyGroup):
         name="Tolerance", default=1e-3, min=1e-7, max=0.5, precision=5,
         description="Stop when this share of the light is still to be distributed",
     )
+    refinement_levels: bpy.props.IntProperty(
+        name="Refinement Levels", default=0, min=0, max=4,
+        description="Split patches where light changes fast this many times, re-solving after each; "
+        "with one or more, the error estimate is the change in the last level (tighter)",
+    )
     ambient: bpy.props.BoolProperty(
         name="Ambient Term", default=True,
         description="Add an estimate of the light not yet shot (progressive only)",
@@ -98,6 +103,7 @@ class RadiositySettings(bpy.types.PropertyGroup):
                 "rays_per_form_factor": int(self.rays),
                 "hemicube_resolution": self.hemicube_resolution,
                 "tolerance": self.tolerance,
+                "refinement_levels": self.refinement_levels,
             }
         else:
             knobs = preset_knobs(self.preset, extent)

@@ -1,0 +1,81 @@
+"""How far a bake's corner colours may be from the converged answer: the light not yet
+distributed, plus the error of representing radiosity as constant over each patch.
+
+Errors are relative RMS over the receiver nodes that emit nothing, all channels:
+sqrt(mean |c - c*|^2) / mean |c*| (the NRMSE the benchmarks measure, docs/tradeoffs.md).
+
+Discretisation, by one of two measures:
+- after adaptive refinement, LEVEL_FACTOR times the change of the node colours in the last
+  level: if each level shrinks the error by a factor r, what is left after it is the sum of the
+  changes still to come, r / (1 - r) times the last one, at most 2 for r <= 2/3 (measured on
+  the reflective cube room of tests/core/test_error_estimate.py: r = 0.55 to 0.6);
+- on one level, the gap between each corner's colour (evaluated at the corner) and the radiosity
+  of its triangle's patch nearest that corner (evaluated at the patch's receiving point): the
+  change of radiosity across a patch's reach, which a constant patch cannot represent.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .discretize import Discretization
+
+LEVEL_FACTOR = 2.0
+# Ray geometry is float32 in a unit-size space (visibility.py): no estimate claims better.
+ROUNDING_FLOOR = 1e-6
+
+
+def solver_error(mesh: Discretization, radiosity: np.ndarray, solve_stats: dict) -> float:
+    """The solver's part, relative to the mean radiosity of the patches that emit nothing.
+
+    Progressive: the unshot light with its future bounces, u / (1 - u) sum_p A_p B_p, where u
+    is ``unshot_fraction`` (of all light), over sum_quiet A_p B_p. Jacobi, Gauss-Seidel: the
+    bound on max |B - B*|, ``error_bound`` max |B|, over the quiet patches' mean |B|."""
+    quiet = ~mesh.patch_emission.any(axis=1)
+    if not quiet.any():
+        quiet = np.ones_like(quiet)
+    light = mesh.patch_areas @ np.abs(radiosity).sum(axis=1)
+    quiet_light = mesh.patch_areas[quiet] @ np.abs(radiosity[quiet]).sum(axis=1)
+    if quiet_light <= 0:
+        return 0.0
+    if "unshot_fraction" in solve_stats:
+        left = solve_stats["unshot_fraction"]
+        return float(left / (1 - left) * light / quiet_light) if left < 1 else float("inf")
+    mean = quiet_light / (mesh.patch_areas[quiet].sum() * radiosity.shape[1])
+    return float(solve_stats["error_bound"] * np.abs(radiosity).max() / mean)
+
+
+def relative_rms(difference: np.ndarray, colors: np.ndarray, quiet: np.ndarray) -> float:
+    """sqrt(mean |difference|^2) / mean |colors| over rows ``quiet`` (all rows if none is)."""
+    chosen = quiet if quiet.any() else np.ones_like(quiet)
+    scale = float(np.abs(colors[chosen]).mean())
+    return float(np.sqrt((difference[chosen] ** 2).mean()) / scale) if scale > 0 else 0.0
+
+
+def level_change(mesh: Discretization, colors: np.ndarray, previous: np.ndarray) -> float:
+    """LEVEL_FACTOR times the relative RMS change of the node colours (N, C) from the previous
+    level's."""
+    return LEVEL_FACTOR * relative_rms(colors - previous, colors, ~mesh.node_emission.any(axis=1))
+
+
+def corner_patch_gap(mesh: Discretization, colors: np.ndarray, radiosity: np.ndarray,
+                     receiving_points: np.ndarray) -> float:
+    """Relative RMS of node colour (N, C) minus the radiosity (P, C) of the nearest patch of
+    the same input triangle, over the corners of the input triangles."""
+    front = mesh.front_patch_count
+    owner = mesh.patch_triangle[:front]
+    corner_node = mesh.corner_node[owner]  # (F, 3) the nodes of each patch's triangle
+    valid = corner_node >= 0
+    nodes = np.maximum(corner_node, 0)
+    distance = np.linalg.norm(receiving_points[:front, None, :] - mesh.node_points[nodes], axis=2)
+    distance[~valid] = np.inf
+    differences, references, quiet = [], [], []
+    for k in range(3):
+        order = np.lexsort((distance[:, k], owner))  # by triangle, nearest patch first
+        first = order[np.r_[True, owner[order][1:] != owner[order][:-1]]]
+        first = first[valid[first, k]]
+        node = corner_node[first, k]
+        differences.append(colors[node] - radiosity[first])
+        references.append(colors[node])
+        quiet.append(~mesh.node_emission[node].any(axis=1))
+    return relative_rms(np.concatenate(differences), np.concatenate(references), np.concatenate(quiet))

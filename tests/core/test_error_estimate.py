@@ -1,0 +1,113 @@
+"""Every bake's stats["error_estimate"] bounds its measured error: relative RMS of the corner
+colours that emit nothing, against an exact answer or a converged reference (core/estimate.py)."""
+
+import numpy as np
+import pytest
+
+from core import Scene, bake
+from core.analytic import point_to_triangle
+from tests.core.scenes import box, merge, quad
+
+PAIRS = [("raycast", "progressive"), ("hemicube", "progressive"), ("hemicube", "jacobi"), ("raycast", "gauss_seidel")]
+
+
+def relative_rms(scene: Scene, colors: np.ndarray, truth: np.ndarray) -> float:
+    """The measure of core/estimate.py on the corners of triangles that emit nothing."""
+    quiet = ~scene.emission.any(axis=1)
+    return float(np.sqrt(((colors[quiet] - truth[quiet]) ** 2).mean()) / np.abs(truth[quiet]).mean())
+
+
+def lit_floor() -> Scene:
+    """A grey floor (2 x 2, reflectance 0.5) under a square emitter (0.5 x 0.5, emission 4) at
+    height 0.5, facing down; nothing else reflects, so each floor point reflects exactly
+    0.5 * 4 * F(point -> emitter)."""
+    floor = quad([-1, -1, 0], [2, 0, 0], [0, 2, 0])
+    light = quad([-0.25, -0.25, 0.5], [0, 0.5, 0], [0.5, 0, 0])
+    vertices, triangles = merge(floor, light)
+    reflectance = np.array([[0.5] * 3] * 2 + [[0.0] * 3] * 2)
+    emission = np.array([[0.0] * 3] * 2 + [[4.0] * 3] * 2)
+    return Scene(vertices, triangles, reflectance, emission)
+
+
+def cube_room(reflectance: float = 0.5) -> Scene:
+    """A closed unit cube of uniform reflectance with a small square emitter (0.2 x 0.2,
+    emission 20) 1 mm under the middle of its ceiling, facing down: the CIE 171:2006-style room."""
+    vertices, triangles = merge(box(1.0), quad([0.4, 0.4, 0.999], [0, 0.2, 0], [0.2, 0, 0]))
+    count = len(triangles)
+    rho = np.full((count, 3), reflectance)
+    rho[-2:] = 0.0
+    emission = np.zeros((count, 3))
+    emission[-2:] = 20.0
+    return Scene(vertices, triangles, rho, emission)
+
+
+@pytest.mark.parametrize("solver", ["progressive", "gauss_seidel"])
+@pytest.mark.parametrize("levels", [0, 1])
+def test_the_estimate_bounds_the_error_under_an_emitter(solver, levels):
+    """Exact truth at each floor corner: 0.5 * 4 * F(corner -> emitter) by the contour
+    integral. The bake's nodes sit 1e-3 of the way in from the corner, so the truth is taken
+    there too; the error left is the solver's and rounding. (Ray casting only: the hemicube's
+    aliasing at the nodes, 5 % here at 64 pixels, is not part of the estimate; docs/methods.md.)"""
+    method = "raycast"
+    scene = lit_floor()
+    result = bake(scene, method, solver, refinement_levels=levels, tolerance=1e-4)
+    corners = scene.vertices[scene.triangles[:2]]  # (2, 3, 3)
+    inset = corners + 1e-3 * (corners.mean(axis=1, keepdims=True) - corners)
+    light = scene.vertices[scene.triangles[2:]]
+    normals = np.tile([0.0, 0.0, 1.0], (6, 1))
+    factor = sum(point_to_triangle(inset.reshape(-1, 3), normals, np.repeat(light[[k]], 6, axis=0)) for k in range(2))
+    truth = np.zeros_like(result.corner_colors)
+    truth[:2] = (0.5 * 4.0 * factor).reshape(2, 3, 1)
+    error = relative_rms(scene, result.corner_colors, truth)
+    estimate = result.stats["error_estimate"]
+    assert np.isfinite(estimate["total"]) and estimate["total"] >= error, (estimate, error)
+
+
+@pytest.mark.parametrize("method, solver", PAIRS)
+def test_the_estimate_bounds_the_error_in_a_furnace(method, solver):
+    """A closed cube emitting 1 with reflectance 0.5 everywhere: B = 1 / (1 - 0.5) = 2 exactly."""
+    vertices, triangles = box(1.0)
+    count = len(triangles)
+    scene = Scene(vertices, triangles, np.full((count, 3), 0.5), np.ones((count, 3)))
+    result = bake(scene, method, solver, tolerance=1e-4)
+    error = float(np.sqrt(((result.corner_colors - 2.0) ** 2).mean()) / 2.0)
+    assert result.stats["error_estimate"]["total"] >= error
+
+
+@pytest.fixture(scope="module")
+def room_reference():
+    """The cube room converged: patches of extent / 12 (1,300), tolerance 1e-5. Against one at
+    extent / 24 (4,800 patches) it differs by 3.5 % (measured), far less than the errors the
+    estimates must bound below (10 % to 20 %)."""
+    scene = cube_room()
+    return scene, bake(scene, patch_size=scene.extent / 12, tolerance=1e-5).corner_colors
+
+
+@pytest.mark.parametrize("levels, knobs", [
+    (0, {}),
+    (1, {}),
+    (0, {"method": "hemicube", "solver": "jacobi"}),
+])
+def test_the_estimate_bounds_the_discretisation_error_in_a_room(room_reference, levels, knobs):
+    """Patches of a quarter of the extent are coarse for this room: the walls darken towards
+    the ceiling within a patch (measured errors 21 %, 11 %, 15 %). The estimate must bound the
+    error; after a refinement it is the tighter one (measured 0.18 against an error of 0.06,
+    where one level's estimate is 0.45 against 0.21)."""
+    scene, reference = room_reference
+    result = bake(scene, refinement_levels=levels, **knobs)
+    error = relative_rms(scene, result.corner_colors, reference)
+    estimate = result.stats["error_estimate"]
+    assert estimate["total"] >= error, (estimate, error)
+    if levels:
+        assert estimate["discretisation"] <= 0.5 * bake(scene, **knobs).stats["error_estimate"]["discretisation"]
+
+
+def test_the_unshot_estimate_bounds_an_unfinished_solve():
+    """Progressive refinement stopped early (5 % unshot, no ambient term) against the same
+    patches solved to 1e-7: the difference is the light not yet shot, and the estimate's
+    unshot part bounds it."""
+    scene = cube_room()
+    converged = bake(scene, tolerance=1e-7)
+    early = bake(scene, tolerance=5e-2, ambient=False)
+    error = relative_rms(scene, early.corner_colors, converged.corner_colors)
+    assert 0.01 < error <= early.stats["error_estimate"]["unshot"], (error, early.stats["error_estimate"])
