@@ -151,7 +151,8 @@ def bake(
         stages_from = start + number * span
         if number > 0:
             clock = time.perf_counter()
-            jumps = refine.radiosity_jumps(mesh, radiosity, crease)
+            jumps = np.maximum(refine.radiosity_jumps(mesh, radiosity, crease),
+                               refine.corner_gaps(mesh, colors, radiosity))
             chosen = np.flatnonzero(jumps > settings.refinement_threshold * _mean_reflected(mesh, radiosity))
             if len(chosen) == 0:
                 break

@@ -54,11 +54,12 @@ class FormFactorEngine:
         else:
             raycast.check_ray_count(rays_per_form_factor)
         front = mesh.front_patch_count
-        self.visibility = visibility or Visibility(mesh.patch_corners[:front], two_sided=mesh.back_of_front >= 0)
+        self.visibility = visibility or Visibility(mesh.patch_corners[:front], two_sided=mesh.back_of_front >= 0,
+                                                   owners=mesh.patch_triangle[:front])
         self.receiving_points = receivers.receiving_points(mesh, self.visibility)
         self.raycaster = None if method == "hemicube" else raycast.RayCaster(
-            mesh.patch_corners, mesh.patch_normals, mesh.patch_areas, self.visibility, rays_per_form_factor, seed
-        )
+            mesh.patch_corners, mesh.patch_normals, mesh.patch_areas, self.visibility, rays_per_form_factor, seed,
+            patch_owners=mesh.patch_triangle)
 
     @cached_property
     def _shot_receivers(self) -> tuple[np.ndarray, np.ndarray]:

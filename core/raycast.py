@@ -51,8 +51,12 @@ def stratified_samples(patch_corners: np.ndarray, count: int, seed: int) -> np.n
 class RayCaster:
     """Point-to-patch form factors with ray-cast visibility over a fixed set of patches."""
 
-    def __init__(self, patch_corners, patch_normals, patch_areas, visibility: Visibility, rays: int, seed: int):
+    def __init__(self, patch_corners, patch_normals, patch_areas, visibility: Visibility, rays: int, seed: int,
+                 patch_owners: np.ndarray | None = None):
+        """``patch_owners`` (P,): the surface (``visibility.owners``) each patch lies on, or None
+        for sources that are not among the occluders (area lights)."""
         self.corners = patch_corners
+        self.owners = patch_owners
         self.visibility = visibility
         self.rays = rays
         unit_corners = (patch_corners - visibility.center) * visibility.scale
@@ -86,12 +90,36 @@ class RayCaster:
         weight_sum = weight.sum(axis=1)
         weight[weight_sum <= 0] = 1.0  # no sample above both horizons: count them all alike
         weight_sum[weight_sum <= 0] = self.rays
-        # stop RAY_EPSILON short of the source's plane, measured across it: a grazing ray then
-        # cannot hit its own source through the rounding of the sample onto float32
-        reach = 1 - RAY_EPSILON / np.maximum(-cos_source, np.finfo(np.float32).tiny)
-        blocked = self.visibility.occluded_unit(
-            np.repeat(origin, self.rays, axis=0), offset.reshape(-1, 3), reach.reshape(-1)
-        ).reshape(weight.shape)
+        blocked = self._blocked(origin, offset, cos_source, sources).reshape(weight.shape)
         weight[blocked] = 0
         unoccluded[lit] *= weight.sum(axis=1) / weight_sum
         return unoccluded
+
+    def _blocked(self, origin, offset, cos_source, sources) -> np.ndarray:
+        """(k * S,) bool: whether the ray from each origin (k, 3) to each of its samples (k, S, 3
+        offsets) is blocked."""
+        rays = self.rays
+        starts, directions = np.repeat(origin, rays, axis=0), offset.reshape(-1, 3)
+        across = np.maximum(-cos_source, np.finfo(np.float32).tiny).reshape(-1)
+        if self.owners is None:
+            # stop RAY_EPSILON short of the source's plane, measured across it: a grazing ray then
+            # cannot hit its own source through the rounding of the sample onto float32
+            return self.visibility.occluded_unit(starts, directions, 1 - RAY_EPSILON / across)
+        # reach RAY_EPSILON past the source's plane and look at what the ray meets first: the
+        # source's own surface counts as seen; so does a face in the source's plane that turns
+        # its back to the ray (the far side of a two-faced card); a coplanar face turned the
+        # same way as the source blocks when it wins the tie (two coincident faces then share
+        # the solid angle, as they share a hemicube's pixels, instead of both taking all of it);
+        # anything else blocks
+        visibility = self.visibility
+        first = visibility.first_hit_unit(starts, directions, 1 + RAY_EPSILON / across)
+        hit = np.maximum(first, 0)
+        blocked = (first >= 0) & (visibility.owners[hit] != np.repeat(self.owners[sources], rays))
+        candidates = np.flatnonzero(blocked)
+        hit_normals = visibility.triangle_normals[hit[candidates]]
+        turned_away = (directions[candidates] * hit_normals).sum(axis=1) > 0
+        target = (starts[candidates] + directions[candidates]).astype(np.float64)  # the sample point
+        in_plane = np.abs((target * hit_normals).sum(axis=1) - visibility.unit_plane_offsets[hit[candidates]]) \
+            <= 2 * RAY_EPSILON
+        blocked[candidates[turned_away & in_plane]] = False
+        return blocked

@@ -41,6 +41,25 @@ def radiosity_jumps(mesh: Discretization, radiosity: np.ndarray, crease_angle: f
     return jumps
 
 
+def corner_gaps(mesh: Discretization, node_colors: np.ndarray, radiosity: np.ndarray) -> np.ndarray:
+    """(F,) for each front patch, max over the receiver nodes at its own corners (nodes of its
+    input triangle, within 1 % of its size of one of its corners) and channels of
+    |c_node - B_p|: where a patch cannot show how light changes towards a vertex, which is
+    where colours are read."""
+    front = mesh.front_patch_count
+    corners = mesh.patch_corners[:front]
+    nodes = mesh.corner_node[mesh.patch_triangle[:front]]  # (F, 3) nodes of each patch's triangle
+    size = np.linalg.norm(corners[:, 1] - corners[:, 0], axis=1) + np.linalg.norm(corners[:, 2] - corners[:, 0], axis=1)
+    gaps = np.zeros(front)
+    for k in range(3):
+        node = np.maximum(nodes[:, k], 0)
+        distance = np.linalg.norm(corners - mesh.node_points[node][:, None, :], axis=2).min(axis=1)
+        touching = (nodes[:, k] >= 0) & (distance <= 0.01 * size)
+        gap = np.abs(node_colors[node] - radiosity[:front]).max(axis=1)
+        gaps = np.maximum(gaps, np.where(touching, gap, 0.0))
+    return gaps
+
+
 def _welded_corners(corners: np.ndarray) -> np.ndarray:
     """(F, 3) id per patch corner, equal for corners at the same place."""
     points = corners.reshape(-1, 3)

@@ -10,6 +10,12 @@ import numpy as np
 from .lights import check_lights
 
 
+# Areas and form-factor kernels take squares and fourth powers of lengths: beyond these, float64
+# over- or underflows (1e50 ** 4 = 1e200; at 1e-75 units every bake still matched to 1e-15).
+MAX_COORDINATE = 1e50
+MIN_EXTENT = 1e-50
+
+
 def _first_bad(mask: np.ndarray) -> int:
     """Index of the first row where ``mask`` is True (mask reduced over trailing axes)."""
     rows = mask.reshape(mask.shape[0], -1).any(axis=1)
@@ -76,6 +82,13 @@ class Scene:
             raise ValueError(
                 f"triangles[{bad}] = {triangles[bad].tolist()} indexes outside vertices "
                 f"(there are {len(vertices)})"
+            )
+        used = vertices[np.unique(triangles)]
+        size = float(np.abs(used).max()) if len(used) else 0.0
+        if size > MAX_COORDINATE or 0 < float(np.ptp(used, axis=0).max()) < MIN_EXTENT:
+            raise ValueError(
+                f"the vertices span {float(np.ptp(used, axis=0).max()):.3g} units with coordinates up to {size:.3g}: "
+                f"areas would leave the range of float64; scale the scene into [{MIN_EXTENT:g}, {MAX_COORDINATE:g}]"
             )
         count = len(triangles)
         reflectance = _per_triangle("reflectance", self.reflectance, count)

@@ -62,7 +62,8 @@ def progressive(
     state: ShootingState | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Progressive refinement (Cohen, Chen, Wallace and Greenberg 1988): repeatedly shoot the
-    patch q with the most unshot power A_q sum_c |U_q,c| to every receiver r:
+    patch q with the most unshot power, A_q sum_c |U_q,c| / L_c with L_c all the light of
+    channel c (so that a faint channel is shot too), to every receiver r:
 
         dB_r = rho_r F[r, q] U_q;   B_r += dB_r;   U_r += dB_r (patches only);   U_q = 0.
 
@@ -76,10 +77,10 @@ def progressive(
     O(P + N). ``state`` (ShootingState) resumes an earlier solve and is updated in place;
     without it the solve starts from B = U = E.
 
-    Stops when the light still unshot, with all its future bounces in a closed scene,
-    sum A |U| / (1 - rho_mean), is at most ``tolerance`` of all the light, distributed and not
-    (where light escapes, that overestimates what is left: the stop is conservative). That
-    share is reported as ``unshot_fraction``.
+    Stops when, in every channel, the light still unshot, with all its future bounces in a
+    closed scene, sum A |U| / (1 - rho_mean), is at most ``tolerance`` of all the light,
+    distributed and not (where light escapes, that overestimates what is left: the stop is
+    conservative). The largest share over channels is reported as ``unshot_fraction``.
 
     With ``ambient`` the result adds the remainder as a uniform ambient term (Cohen et al.
     1988): rho_r * c (sum A U / sum A) / (1 - c rho_mean), where c is the share of the power
@@ -105,14 +106,16 @@ def progressive(
     limit = state.shots + (max_shots if max_shots is not None else np.inf)  # converges for rho < 1
     shots_before = state.shots
 
-    def undistributed() -> float:
-        remaining = float(areas @ np.abs(unshot) @ gain)
-        distributed = float(areas @ radiosity[:patch_count].sum(axis=1))
-        return remaining / (remaining + distributed) if remaining > 0 else 0.0
+    def undistributed() -> tuple[float, np.ndarray]:
+        """The largest share over channels, and each channel's light (C,), distributed or not."""
+        remaining = (areas @ np.abs(unshot)) * gain
+        light = remaining + areas @ np.abs(radiosity[:patch_count])
+        shares = np.divide(remaining, light, out=np.zeros_like(light), where=light > 0)
+        return float(shares.max()), light
 
-    left = undistributed()
+    left, light = undistributed()
     while state.shots < limit and left > tolerance:
-        power = areas * np.abs(unshot).sum(axis=1)
+        power = areas * (np.abs(unshot) / np.where(light > 0, light, 1.0)).sum(axis=1)
         source = int(np.argmax(power))
         shooting = unshot[source].copy()
         if source not in cache:
@@ -133,7 +136,7 @@ def progressive(
         unshot += received[:patch_count]
         unshot[source] = 0.0
         state.shots += 1
-        left = undistributed()
+        left, light = undistributed()
         report(_effort(left, tolerance), f"{state.shots} shots, {100 * left:.2g}% unshot")
     captured = state.power_captured / state.power_shot if state.power_shot > 0 else 1.0
     ambient_term = (areas @ unshot) / total_area * captured / (1.0 - captured * mean_reflectance)

@@ -48,9 +48,12 @@ class Visibility:
         used is ``self.backend``.
     triangle_normals : (P, 3) their unit normals (zero for a zero-area triangle).
     two_sided : (P,) bool, which of them have two faces (none unless given): ``receivers`` only.
+    owners : (P,) int, the surface each belongs to (by default each its own): a ray aimed at a
+        surface is not blocked by the surface itself (``raycast``).
     """
 
-    def __init__(self, corners: np.ndarray, backend: str | None = None, two_sided: np.ndarray | None = None) -> None:
+    def __init__(self, corners: np.ndarray, backend: str | None = None, two_sided: np.ndarray | None = None,
+                 owners: np.ndarray | None = None) -> None:
         if backend is None:
             backend = default_backend()
         if backend not in BACKENDS:
@@ -72,6 +75,9 @@ class Visibility:
         unit_corners = self.to_unit(corners.reshape(-1, 3)).reshape(-1, 3, 3)
         self.triangle_normals = areas_and_normals(np.asarray(corners, dtype=np.float64))[1]
         self.two_sided = np.zeros(len(unit_corners), dtype=bool) if two_sided is None else np.asarray(two_sided, bool)
+        self.owners = np.arange(len(unit_corners)) if owners is None else np.asarray(owners)
+        # n . x of each triangle's plane in unit space, float64 (``raycast`` tells coplanar faces apart)
+        self.unit_plane_offsets = (self.triangle_normals * unit_corners[:, 0].astype(np.float64)).sum(axis=1)
         if backend == "embree":
             self._scene = embree_scene()
             triangle_mesh(self._scene, unit_corners)
@@ -103,6 +109,11 @@ class Visibility:
         if len(test):
             blocked[test] = self._run(starts[test], directions[test], reach[test], "OCCLUDED") != -1
         return blocked
+
+    def first_hit_unit(self, starts: np.ndarray, directions: np.ndarray, reach: np.ndarray) -> np.ndarray:
+        """(n,) int: the nearest triangle on each ray start + t direction, 0 <= t < reach, or -1,
+        in unit space (as ``occluded_unit``)."""
+        return self._run(starts, directions, reach, "INTERSECT")
 
     def nearest(self, origins: np.ndarray, directions: np.ndarray, lift: np.ndarray) -> np.ndarray:
         """(n,) int: index of the first triangle along each ray (unit ``directions``), -1 for a

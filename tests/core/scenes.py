@@ -62,3 +62,12 @@ def lit_room(size: float = 1.0) -> Scene:
     emission = np.zeros_like(reflectance)
     emission[-2:] = [10.0, 8.0, 6.0]
     return Scene(vertices, triangles, reflectance, emission)
+
+
+def tetrahedron() -> tuple[np.ndarray, np.ndarray]:
+    """A regular tetrahedron (edge 2 sqrt 2, centred on the origin) of 4 triangles facing
+    inwards. By symmetry the exact form factor from the centroid of a face to each other face
+    is 1/3 (the three fill its hemisphere equally)."""
+    vertices = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=float)
+    triangles = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])  # counter-clockwise seen from inside
+    return vertices, triangles
