@@ -2,6 +2,8 @@
 cancel changes nothing, undo restores, a second bake gives the same colours, a saved file keeps
 them, and what the report says about approximations."""
 
+import re
+
 import bpy
 import numpy as np
 import pytest
@@ -41,7 +43,11 @@ def test_bake_writes_one_active_float_corner_attribute_per_mesh(room):
     room.data.color_attributes["Col"].data.foreach_get("color", col)
     np.testing.assert_allclose(col, 0.25, atol=1 / 255)  # untouched
     assert "Radiosity" in bpy.data.objects["Panel"].data.color_attributes
-    assert "Baked radiosity" in bpy.context.scene.radiosity.last_report
+    report = bpy.context.scene.radiosity.last_report
+    assert "Baked radiosity" in report
+    estimated = re.search(r"estimated error ([0-9.e+-]+)% \(solver ([0-9.e+-]+)%, patches ([0-9.e+-]+)%\)", report)
+    assert estimated, report  # the bake says how far from converged it may be
+    assert float(estimated[1]) >= max(float(estimated[2]), float(estimated[3])) * 0.99
 
 
 def test_second_bake_replaces_only_its_attribute_with_the_same_colours(room):
