@@ -1,0 +1,315 @@
+"""The bpy side of the Cycles comparison (bench/cycles.py): one measurement of the sample Cornell box
+per process, as ``python bench/cycles_worker.py CASE_JSON RESULT_PATH``, and ``run_case`` to start one
+from the driver. bpy can be imported once per process, so every case loads Blender afresh: it loads
+the checkout as a real extension (tools/source_extension.py), opens the file, measures and writes
+JSON. Times are taken around the bake calls only (Blender's start-up and the file load excluded).
+
+Cases (dicts, JSON on the command line), by ``kind``:
+
+- ``ours``: ``bpy.ops.radiosity.bake()``; ``settings`` sets ``scene.radiosity`` properties first
+  (e.g. ``{"preset": "CUSTOM", "patch_size": 0.03, "rays": "256"}``), ``node_inset`` moves
+  core.discretize.NODE_INSET, ``render`` is a path for a picture of the baked colours.
+- ``cycles``: a COMBINED vertex bake with ``samples`` and ``seed`` (../shared/CYCLES.md's recipe),
+  optionally on a scene changed by one of VARIANTS.
+- ``check``: the same Cycles bake per object and all at once (``samples``, ``seed``).
+- ``render``: a Cycles render of the camera view to ``path`` (``samples``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+BLEND = REPO / "sample_blends" / "cornell_box.blend"
+ATTRIBUTE = "Radiosity"  # scene.radiosity.attribute_name's default: what the bake writes
+CYCLES_ATTRIBUTE = "cycles"
+EMITTERS = ("light",)  # the Cornell light's mesh: its corners carry its emission, left out of every comparison
+# The non-emitting surfaces of the file, in the order the tables list them (object names).
+SURFACES = ("floor", "ceiling", "back_wall", "left_wall_red", "right_wall_green", "short_block", "tall_block")
+PICTURE_SCALE = 75  # percent of the scene's 512 x 512: a 256-sample render at 512 is too large a PNG
+
+
+def worker(case: dict, result_path: str) -> None:
+    """Measure ``case`` (see the ``_case_*`` functions) and write its JSON to ``result_path``."""
+    # bench/ is first on sys.path (the script's directory), where bench/cycles.py would shadow
+    # Blender's own "cycles" add-on: take it off before bpy is imported.
+    here = str(Path(__file__).resolve().parent)
+    sys.path[:] = [entry for entry in sys.path if os.path.abspath(entry or ".") != here]
+    sys.modules.pop("cycles", None)
+    sys.path.insert(0, str(Path(here).parent))
+    from tools.source_extension import blender_with_extension
+
+    bpy, package = blender_with_extension()
+
+    bpy.ops.wm.open_mainfile(filepath=str(BLEND), load_ui=False)
+    kind = case["kind"]
+    result = {"ours": _case_ours, "cycles": _case_cycles, "check": _case_check, "render": _case_render}[kind](
+        bpy, package, case
+    )
+    result["threads"] = bpy.context.scene.render.threads
+    result["bpy"] = bpy.app.version_string
+    Path(result_path).write_text(json.dumps(result))
+
+
+def _case_ours(bpy, package, case: dict) -> dict:
+    """Our bake as a user runs it (``bpy.ops.radiosity.bake()``, scene.radiosity as saved in the
+    file, then ``case["settings"]`` set on it), timed around the call; the core's stats captured on
+    the way through the operator module's ``run_straight`` (or, failing that, the seconds of the
+    summary line)."""
+    operators = package.radiosity_addon.operators
+    captured = {}
+    original = getattr(operators, "run_straight", None)
+    if original is not None:
+        def capturing(prepared, *args, **kwargs):
+            captured["result"] = original(prepared, *args, **kwargs)
+            return captured["result"]
+        operators.run_straight = capturing
+    scene = bpy.context.scene
+    for name, value in case.get("settings", {}).items():
+        setattr(scene.radiosity, name, value)
+    if "node_inset" in case:  # a sensitivity check: where the core evaluates a vertex colour
+        discretize = package.core.discretize
+        if not hasattr(discretize, "NODE_INSET"):
+            raise RuntimeError("core.discretize.NODE_INSET is gone: update the node-inset case of bench/cycles.py")
+        discretize.NODE_INSET = case["node_inset"]
+    settings = {name: str(getattr(scene.radiosity, name)) for name in ("preset", "method", "solver", "two_sided")}
+    wall, cpu = time.perf_counter(), _cpu_seconds()
+    outcome = bpy.ops.radiosity.bake()
+    wall, cpu = time.perf_counter() - wall, _cpu_seconds() - cpu
+    if outcome != {"FINISHED"}:
+        raise RuntimeError(f"bpy.ops.radiosity.bake() returned {outcome}")
+    summary = scene.radiosity.last_report
+    if "result" in captured:
+        stats = captured["result"].stats
+        core_seconds, stages = stats["seconds"]["total"], {k: v for k, v in stats["seconds"].items() if k != "total"}
+        counts = _counts(stats)
+    else:
+        core_seconds, stages, counts = float(re.search(r"([\d.]+) s\b", summary).group(1)), {}, {}
+    if case.get("render"):
+        _picture_settings(scene)
+        package.radiosity_addon.preview.render_colours(scene, ATTRIBUTE, case["render"])
+    return {"wall": wall, "cpu": cpu, "core_seconds": core_seconds, "stages": stages, "counts": counts,
+            "summary": summary, "settings": settings, "threads_core": package.core.parallel.THREADS,
+            "objects": _read_corners(bpy, ATTRIBUTE, with_geometry=bool(case.get("render")))}
+
+
+def _counts(stats: dict) -> dict:
+    """What the report quotes of a bake's stats: sizes, work, the knobs the core used, how far
+    the solver got, and the core's own error estimate where it gives one (None where it does not)."""
+    counts = {key: stats.get(key) for key in ("triangles", "patches", "nodes", "shots", "iterations", "rays_cast",
+                                              "unshot_fraction", "error_bound", "error_estimate",
+                                              "refinements")}
+    return counts | {key: stats["settings"][key] for key in ("patch_size", "rays_per_form_factor", "tolerance")}
+
+
+def _case_cycles(bpy, _package, case: dict) -> dict:
+    """A Cycles COMBINED vertex bake of every non-emitting mesh at once (the check case shows it
+    equals baking them one by one), timed around ``bpy.ops.object.bake``."""
+    _cycles_settings(bpy.context.scene, case["samples"], case["seed"])
+    if case.get("variant"):
+        VARIANTS[case["variant"]][1](bpy)
+    meshes = _baked_meshes(bpy)
+    _add_attribute(meshes, CYCLES_ATTRIBUTE)
+    _select(bpy, meshes)
+    wall, cpu = time.perf_counter(), _cpu_seconds()
+    bpy.ops.object.bake(type="COMBINED", target="VERTEX_COLORS")
+    wall, cpu = time.perf_counter() - wall, _cpu_seconds() - cpu
+    return {"wall": wall, "cpu": cpu, "objects": _read_corners(bpy, CYCLES_ATTRIBUTE)}
+
+
+def _diffuse_bsdf(bpy) -> None:
+    """Every Principled BSDF feeding a material output replaced by a Diffuse BSDF (roughness 0,
+    Lambertian) of its base colour: does the Principled BSDF reflect more than a diffuse one?"""
+    for material in bpy.data.materials:
+        tree = material.node_tree
+        output = tree.get_output_node("CYCLES") if tree is not None else None
+        if output is None or not output.inputs["Surface"].is_linked:
+            continue
+        shader = output.inputs["Surface"].links[0].from_node
+        if shader.bl_idname == "ShaderNodeBsdfPrincipled":
+            diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+            diffuse.inputs["Color"].default_value = shader.inputs["Base Color"].default_value
+            diffuse.inputs["Roughness"].default_value = 0.0
+            tree.links.new(diffuse.outputs["BSDF"], output.inputs["Surface"])
+
+
+def _light_front_only(bpy) -> None:
+    """The emitters' Emission shader masked by Geometry > Backfacing, so they emit from their
+    front only (a plain Emission shader emits from both sides): does the light's back matter?"""
+    for name in EMITTERS:
+        for slot in bpy.context.scene.objects[name].material_slots:
+            tree = slot.material.node_tree
+            output = tree.get_output_node("CYCLES")
+            emission = output.inputs["Surface"].links[0].from_node
+            geometry, mix = tree.nodes.new("ShaderNodeNewGeometry"), tree.nodes.new("ShaderNodeMixShader")
+            black = tree.nodes.new("ShaderNodeEmission")
+            black.inputs["Strength"].default_value = 0.0
+            tree.links.new(geometry.outputs["Backfacing"], mix.inputs["Fac"])
+            tree.links.new(emission.outputs["Emission"], mix.inputs[1])
+            tree.links.new(black.outputs["Emission"], mix.inputs[2])
+            tree.links.new(mix.outputs["Shader"], output.inputs["Surface"])
+
+
+# Cycles bakes of a changed scene: (what the table says, the change)
+VARIANTS = {
+    "diffuse_bsdf": ("Diffuse BSDF instead of the Principled BSDF", _diffuse_bsdf),
+    "light_front_only": ("the light emitting from its front only", _light_front_only),
+}
+
+
+def _case_check(bpy, _package, case: dict) -> dict:
+    """The same Cycles bake (same seed) done per object, each selected alone and active, and for
+    all the meshes selected at once: the largest difference, and both times."""
+    _cycles_settings(bpy.context.scene, case["samples"], case["seed"])
+    meshes = _baked_meshes(bpy)
+    times = {}
+    for name, groups in (("per_object", [[m] for m in meshes]), ("together", [meshes])):
+        _add_attribute(meshes, name)
+        start = time.perf_counter()
+        for group in groups:
+            _select(bpy, group)
+            bpy.ops.object.bake(type="COMBINED", target="VERTEX_COLORS")
+        times[name] = time.perf_counter() - start
+    one, both = _read_corners(bpy, "per_object"), _read_corners(bpy, "together")
+    difference = max(float(np.abs(np.array(one[n]["colours"]) - np.array(both[n]["colours"])).max()) for n in one)
+    return {"max_difference": difference, "seconds": times}
+
+
+def _case_render(bpy, _package, case: dict) -> dict:
+    """A normal Cycles render of the scene's camera view, in the scene's own colour management."""
+    scene = bpy.context.scene
+    _cycles_settings(scene, case["samples"], 0)
+    scene.cycles.use_denoising = False
+    _picture_settings(scene)
+    scene.render.filepath = case["path"]
+    start = time.perf_counter()
+    bpy.ops.render.render(write_still=True)
+    scale = scene.render.resolution_percentage / 100
+    return {"wall": time.perf_counter() - start,
+            "resolution": [round(scene.render.resolution_x * scale), round(scene.render.resolution_y * scale)],
+            "view": scene.view_settings.view_transform, "look": scene.view_settings.look,
+            "exposure": scene.view_settings.exposure}
+
+
+def _picture_settings(scene) -> None:
+    """Both pictures: PICTURE_SCALE of the scene's resolution, PNG at full compression, no dither
+    (its noise only makes the files larger); the scene's colour management as it is."""
+    scene.render.resolution_percentage = PICTURE_SCALE
+    scene.render.dither_intensity = 0.0
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.image_settings.compression = 100
+
+
+def _cycles_settings(scene, samples: int, seed: int) -> None:
+    """The unbiased settings of CYCLES.md (the file has them already; set again so the bench does not
+    depend on it)."""
+    scene.render.engine = "CYCLES"
+    cycles = scene.cycles
+    cycles.device = "CPU"
+    cycles.samples = samples
+    cycles.seed = seed
+    cycles.use_adaptive_sampling = False
+    cycles.max_bounces = cycles.diffuse_bounces = 64
+    cycles.sample_clamp_direct = cycles.sample_clamp_indirect = 0.0
+    cycles.light_sampling_threshold = 0.0
+
+
+def _baked_meshes(bpy) -> list:
+    """The non-emitting mesh objects, in SURFACES order; fails if the file has other surfaces."""
+    meshes = {obj.name: obj for obj in bpy.context.scene.objects if obj.type == "MESH"}
+    if set(meshes) != set(SURFACES) | set(EMITTERS):
+        raise RuntimeError(f"unexpected meshes in {BLEND.name}: {sorted(meshes)}")
+    return [meshes[name] for name in SURFACES]
+
+
+def _add_attribute(meshes: list, name: str) -> None:
+    """A FLOAT_COLOR CORNER attribute on each mesh, made active (the bake writes the active one)."""
+    for obj in meshes:
+        attribute = obj.data.color_attributes.new(name, "FLOAT_COLOR", "CORNER")
+        obj.data.color_attributes.active_color = attribute
+
+
+def _select(bpy, objects: list) -> None:
+    """Select only ``objects``, the first one active."""
+    for obj in bpy.context.scene.objects:
+        obj.select_set(False)
+    for obj in objects:
+        obj.select_set(True)
+    bpy.context.view_layer.objects.active = objects[0]
+
+
+def _read_corners(bpy, attribute: str, with_geometry: bool = False) -> dict:
+    """{object: {"colours": (n, 3) list, "weights": (n,) list}} over the non-emitting meshes, per
+    loop (corner): the colour attribute's RGB and the corner's share of its polygon's area; with
+    ``with_geometry``, also the _geometry of each mesh."""
+    out = {}
+    for obj in _baked_meshes(bpy):
+        mesh = obj.data
+        data = mesh.color_attributes[attribute]
+        if data.data_type != "FLOAT_COLOR" or data.domain != "CORNER":
+            raise RuntimeError(f"{obj.name}: '{attribute}' is {data.data_type} {data.domain}, not FLOAT_COLOR CORNER")
+        colours = np.empty(len(mesh.loops) * 4, np.float32)
+        data.data.foreach_get("color", colours)
+        areas = np.empty(len(mesh.polygons), np.float32)
+        mesh.polygons.foreach_get("area", areas)
+        sizes = np.empty(len(mesh.polygons), np.int32)
+        mesh.polygons.foreach_get("loop_total", sizes)
+        scale = abs(np.linalg.det(np.array(obj.matrix_world)[:3, :3])) ** (2 / 3)  # the file's are identity
+        weights = np.repeat(areas * scale / sizes, sizes)  # polygons' loops are contiguous, in order
+        out[obj.name] = {"colours": colours.reshape(-1, 4)[:, :3].tolist(), "weights": weights.tolist()}
+        if with_geometry:
+            out[obj.name] |= _geometry(obj)
+    return out
+
+
+def _geometry(obj) -> dict:
+    """World-space "positions" (n, 3) of each loop's vertex, and "triangles" (t, 3, 3) of the mesh."""
+    mesh = obj.data
+    matrix = np.array(obj.matrix_world)
+    vertices = np.empty(len(mesh.vertices) * 3, np.float64)
+    mesh.vertices.foreach_get("co", vertices)
+    vertices = vertices.reshape(-1, 3) @ matrix[:3, :3].T + matrix[:3, 3]
+    loops = np.empty(len(mesh.loops), np.int32)
+    mesh.loops.foreach_get("vertex_index", loops)
+    mesh.calc_loop_triangles()
+    triangles = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+    mesh.loop_triangles.foreach_get("vertices", triangles)
+    return {"positions": vertices[loops].tolist(), "triangles": vertices[triangles.reshape(-1, 3)].tolist()}
+
+
+def _cpu_seconds() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+# --------------------------------------------------------------------------------------------------
+# Driver: run the cases in fresh processes, one at a time
+# --------------------------------------------------------------------------------------------------
+
+
+def run_case(case: dict) -> dict:
+    """``case`` measured by this module run as a script, in a new interpreter; its JSON."""
+    with tempfile.TemporaryDirectory(prefix="radiosity-cycles-") as scratch:
+        path = os.path.join(scratch, "result.json")
+        process = subprocess.run(
+            [sys.executable, str(Path(__file__).resolve()), json.dumps(case), path],
+            cwd=REPO, capture_output=True, text=True, check=False,
+        )
+        if process.returncode != 0 or not os.path.exists(path):
+            sys.stderr.write(process.stdout[-3000:] + process.stderr[-5000:])
+            raise RuntimeError(f"worker for {case} failed (exit code {process.returncode})")
+        return json.loads(Path(path).read_text())
+
+
+if __name__ == "__main__":
+    worker(json.loads(sys.argv[1]), sys.argv[2])
