@@ -54,9 +54,11 @@ test-addon: $(VENV)/.ready $(VENV42)/.ready
 extension: $(VENV)/.ready
 	$(PY) tools/build_extension.py --output-dir build
 
-## Speed and accuracy figures (see docs/benchmarks.md)
+## Speed and accuracy figures (docs/benchmarks.md), then the trade-off sweep of every knob, method, solver and
+## preset (docs/tradeoffs.md and its figures; `$(PY) bench/sweep.py --quick` is a one-minute check)
 bench: $(VENV)/.ready
 	$(PY) bench/run.py
+	$(PY) bench/sweep.py
 
 # wheels/ stays: it only holds downloads, which the extension build and its test reuse
 clean:

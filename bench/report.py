@@ -11,9 +11,13 @@ from measure import Measurement
 MIB = float(1 << 20)
 
 
-def nrmse(values: np.ndarray, reference: np.ndarray) -> float:
-    """RMS of the difference over RMS of the reference, over every element."""
-    return float(np.sqrt(np.mean((values - reference) ** 2) / np.mean(reference**2)))
+def nrmse(values: np.ndarray, reference: np.ndarray, scale: str = "rms") -> float:
+    """RMS of the difference over the RMS (``scale="rms"``) or the mean (``scale="mean"``) of the
+    reference, over every element."""
+    if scale not in ("rms", "mean"):
+        raise ValueError(f"scale must be 'rms' or 'mean', got {scale!r}")
+    norm = np.sqrt(np.mean(reference**2)) if scale == "rms" else np.mean(reference)
+    return float(np.sqrt(np.mean((values - reference) ** 2)) / norm)
 
 
 class Errors(NamedTuple):
@@ -42,7 +46,7 @@ def errors(measurements: list[Measurement]) -> list[Errors | None]:
     return result
 
 
-def _table(header: list[str], rows: list[list[str]]) -> str:
+def markdown_table(header: list[str], rows: list[list[str]]) -> str:
     """A Markdown table."""
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     return "\n".join(lines + ["| " + " | ".join(row) + " |" for row in rows])
@@ -71,9 +75,9 @@ def quality_table(measurements: list[Measurement], errs: list[Errors | None]) ->
             f"{100 * s['unshot_fraction']:.3g} %",
             *(["reference"] * 4 if error is None else [f"{value:.4f}" for value in error]),
         ])
-    return _table(["bake", "method, knobs", "patch size", "triangles", "patches", "nodes", "shots", "unshot",
-                   "NRMSE corners", "NRMSE triangle means", "NRMSE corners, non-emitting",
-                   "NRMSE triangle means, non-emitting"], rows)
+    return markdown_table(["bake", "method, knobs", "patch size", "triangles", "patches", "nodes", "shots", "unshot",
+                           "NRMSE corners", "NRMSE triangle means", "NRMSE corners, non-emitting",
+                           "NRMSE triangle means, non-emitting"], rows)
 
 
 def speed_table(measurements: list[Measurement]) -> str:
@@ -83,8 +87,8 @@ def speed_table(measurements: list[Measurement]) -> str:
         f"{m.stats['rays_cast']:,}", f"{m.bake_rays_per_second / 1e6:.2f}",
         f"{m.raw_rays_per_second / 1e6:.2f} ({m.raw_query})", f"{100 * m.ratio:.0f} %", f"{100 * m.cpu_ratio:.0f} %",
     ] for m in measurements]
-    return _table(["bake", "seconds per stage", "wall s", "CPU s / wall s", "rays cast",
-                   "bake Mrays/s", "raw Embree Mrays/s", "bake / raw", "bake / raw per CPU s"], rows)
+    return markdown_table(["bake", "seconds per stage", "wall s", "CPU s / wall s", "rays cast",
+                           "bake Mrays/s", "raw Embree Mrays/s", "bake / raw", "bake / raw per CPU s"], rows)
 
 
 def memory_table(measurements: list[Measurement]) -> str:
@@ -94,5 +98,5 @@ def memory_table(measurements: list[Measurement]) -> str:
         f"{(m.maxrss_after - m.maxrss_before) / MIB:+.0f}", f"{m.stats['peak_memory_estimate'] / MIB:.1f}",
         "yes" if m.repeatable else "NO",
     ] for m in measurements]
-    return _table(["bake", "tracemalloc peak MiB", "ru_maxrss MiB", "ru_maxrss over the loaded scene MiB",
-                   "peak_memory_estimate MiB", "rerun identical"], rows)
+    return markdown_table(["bake", "tracemalloc peak MiB", "ru_maxrss MiB", "ru_maxrss over the loaded scene MiB",
+                           "peak_memory_estimate MiB", "rerun identical"], rows)

@@ -168,8 +168,11 @@ def bake(
         # lit by the lights, a patch starts out as if it emitted what it reflects of them
         sources = mesh.patch_emission[:, :channels] + mesh.patch_reflectance[:, :channels] * patch_direct[:, :channels]
         # a level to be refined needs only roughly where light changes: it stops COARSE_TOLERANCE looser
-        tolerance = settings.tolerance * (1 if number == levels else COARSE_TOLERANCE)
-        radiosity, node_lighting = level.solve(sources, min(tolerance, 0.1), stages,
+        # (but no looser than 0.1, or than the tolerance itself)
+        tolerance = settings.tolerance
+        if number < levels:
+            tolerance = max(tolerance, min(tolerance * COARSE_TOLERANCE, 0.1))
+        radiosity, node_lighting = level.solve(sources, tolerance, stages,
                                                stages_from + (0.05 * span if number else 0.0), stages_from + span, seconds)
         colors = mesh.node_emission[:, :channels] + mesh.node_reflectance[:, :channels] * node_lighting
         change = None if previous_colors is None else estimate.level_change(mesh, colors, previous_colors)
