@@ -231,7 +231,7 @@ class _Level:
             state = self.state
             patch_count = len(state.unshot)
             inherited = state.radiosity[:patch_count][origin]
-            new = np.flatnonzero(np.bincount(origin, minlength=patch_count)[origin] > 1)  # children
+            new = refine.children(origin, patch_count)
             mesh = engine.mesh
             gathered = engine.gather(engine.receiving_points[new], mesh.patch_normals[new], inherited, report)
             corrected = sources[new] + mesh.patch_reflectance[new, : self.channels] * gathered
@@ -315,7 +315,7 @@ def _refined_direct(direct: DirectLighting, mesh: Discretization, origin: np.nda
     result = patch_direct[origin]
     if direct.empty:
         return result
-    new = np.flatnonzero(np.bincount(origin, minlength=len(patch_direct))[origin] > 1)
+    new = refine.children(origin, len(patch_direct))
     result[new] = direct.patch_means(mesh.patch_corners[new], mesh.patch_normals[new], lambda _f: None)
     return result
 

@@ -16,7 +16,7 @@ from dataclasses import replace
 import numpy as np
 
 from .discretize import Discretization
-from .geometry import areas_and_normals
+from .geometry import area_vectors
 
 # Patch corners closer than this fraction of the largest patch edge are one corner.
 WELD_FRACTION = 1e-6
@@ -107,12 +107,11 @@ def split(mesh: Discretization, chosen: np.ndarray) -> tuple[Discretization, np.
     back_of_front[back_front] = len(front_parent) + np.arange(len(back_front))
     origin = np.concatenate([front_parent, mesh.back_of_front[front_parent[back_front]]])
     patch_corners = np.concatenate([front_corners, front_corners[back_front][:, ::-1]])
-    patch_areas, patch_normals = areas_and_normals(patch_corners)
     refined = replace(
         mesh,
         patch_corners=patch_corners,
-        patch_areas=patch_areas,
-        patch_normals=mesh.patch_normals[origin],  # a child faces exactly as its parent
+        patch_areas=np.linalg.norm(area_vectors(patch_corners), axis=1),
+        patch_normals=mesh.patch_normals[origin],  # exactly as its parent (recomputed: rounding)
         patch_centroids=patch_corners.mean(axis=1),
         patch_reflectance=mesh.patch_reflectance[origin],
         patch_emission=mesh.patch_emission[origin],
@@ -120,8 +119,12 @@ def split(mesh: Discretization, chosen: np.ndarray) -> tuple[Discretization, np.
         front_patch_count=len(front_parent),
         back_of_front=back_of_front,
     )
-    del patch_normals  # recomputed normals would differ from the parent's by rounding
     return refined, origin
+
+
+def children(origin: np.ndarray, previous_count: int) -> np.ndarray:
+    """Indices of the patches ``split`` made new (those sharing their origin with a sibling)."""
+    return np.flatnonzero(np.bincount(origin, minlength=previous_count)[origin] > 1)
 
 
 def _midpoint_children(corners: np.ndarray) -> np.ndarray:
