@@ -106,9 +106,10 @@ def bake(
     every 0.2 s; if it returns False the bake raises BakeCancelled.
 
     The scene is solved on patches of ``patch_size``, then ``refinement_levels`` times the
-    patches whose radiosity jumps by more than ``refinement_threshold`` against a neighbour
-    are split in four and the solve goes on from where it was (``refine``). The change of the
-    corner colours in the last level is the discretisation part of ``stats["error_estimate"]``.
+    patches where radiosity jumps by more than ``refinement_threshold`` are split in four and
+    the solve goes on from where it was (``refine``). ``stats["error_estimate"]`` comes from
+    ``estimate``: the light left unshot, plus twice the change of the vertex colours in the last
+    level (or, with no refinement, their gap to the nearest patches).
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -151,9 +152,7 @@ def bake(
         stages_from = start + number * span
         if number > 0:
             clock = time.perf_counter()
-            jumps = np.maximum(refine.radiosity_jumps(mesh, radiosity, crease),
-                               refine.corner_gaps(mesh, colors, radiosity))
-            chosen = np.flatnonzero(jumps > settings.refinement_threshold * _mean_reflected(mesh, radiosity))
+            chosen = refine.to_split(mesh, radiosity, colors, crease, settings.refinement_threshold)
             if len(chosen) == 0:
                 break
             stages.stage(f"refining {number} of {levels}", stages_from, stages_from + 0.05 * span)
@@ -318,13 +317,6 @@ def _refined_direct(direct: DirectLighting, mesh: Discretization, origin: np.nda
     new = refine.children(origin, len(patch_direct))
     result[new] = direct.patch_means(mesh.patch_corners[new], mesh.patch_normals[new], lambda _f: None)
     return result
-
-
-def _mean_reflected(mesh: Discretization, radiosity: np.ndarray) -> float:
-    """Area mean of the radiosity of the patches that emit nothing (of all of them if all emit)."""
-    quiet = ~mesh.patch_emission.any(axis=1)
-    chosen = quiet if quiet.any() else np.ones_like(quiet)
-    return float(mesh.patch_areas[chosen] @ radiosity[chosen].max(axis=1) / mesh.patch_areas[chosen].sum())
 
 
 def _lap(start: float) -> tuple[float, float]:

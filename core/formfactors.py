@@ -54,8 +54,10 @@ class FormFactorEngine:
         else:
             raycast.check_ray_count(rays_per_form_factor)
         front = mesh.front_patch_count
-        self.visibility = visibility or Visibility(mesh.patch_corners[:front], two_sided=mesh.back_of_front >= 0,
-                                                   owners=mesh.patch_triangle[:front])
+        if visibility is None:
+            visibility = Visibility(mesh.patch_corners[:front], two_sided=mesh.back_of_front >= 0,
+                                    owners=mesh.patch_triangle[:front])
+        self.visibility = visibility
         self.receiving_points = receivers.receiving_points(mesh, self.visibility)
         self.raycaster = None if method == "hemicube" else raycast.RayCaster(
             mesh.patch_corners, mesh.patch_normals, mesh.patch_areas, self.visibility, rays_per_form_factor, seed,

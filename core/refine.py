@@ -1,7 +1,7 @@
 """Adaptive subdivision: split the patches where the solved radiosity changes fast.
 
-A patch is split when its radiosity differs from a neighbour's on the same surface by more than
-a threshold (Cohen, Greenberg, Immel and Brock 1986, "An efficient radiosity approach for
+A patch is split when its radiosity differs from a neighbour's on the same surface, or from the
+colour of a vertex of its triangle that it touches, by more than a threshold (Cohen, Greenberg, Immel and Brock 1986, "An efficient radiosity approach for
 realistic image synthesis": elements are subdivided where the radiosity gradient is large).
 Neighbours are patches sharing a corner, facing within the crease angle, of equal reflectance
 and emission. Splitting is by edge midpoints into four congruent children; the T-junctions it
@@ -20,6 +20,19 @@ from .geometry import area_vectors
 
 # Patch corners closer than this fraction of the largest patch edge are one corner.
 WELD_FRACTION = 1e-6
+
+
+def to_split(mesh: Discretization, radiosity: np.ndarray, node_colors: np.ndarray, crease_angle: float,
+             threshold: float) -> np.ndarray:
+    """Indices of the front patches whose ``radiosity_jumps`` or ``corner_gaps`` exceed
+    ``threshold`` times the area mean of the (largest channel of the) radiosity of the patches
+    that emit nothing (of all patches if all emit)."""
+    quiet = ~mesh.patch_emission.any(axis=1)
+    if not quiet.any():
+        quiet = np.ones_like(quiet)
+    scale = mesh.patch_areas[quiet] @ radiosity[quiet].max(axis=1) / mesh.patch_areas[quiet].sum()
+    jumps = np.maximum(radiosity_jumps(mesh, radiosity, crease_angle), corner_gaps(mesh, node_colors, radiosity))
+    return np.flatnonzero(jumps > threshold * scale)
 
 
 def radiosity_jumps(mesh: Discretization, radiosity: np.ndarray, crease_angle: float) -> np.ndarray:
