@@ -1,8 +1,9 @@
 """Adaptive subdivision: split the patches where the solved radiosity changes fast.
 
 A patch is split when its radiosity differs from a neighbour's on the same surface, or from the
-colour of a vertex of its triangle that it touches, by more than a threshold (Cohen, Greenberg, Immel and Brock 1986, "An efficient radiosity approach for
-realistic image synthesis": elements are subdivided where the radiosity gradient is large).
+colour of a vertex of its triangle that it touches, by more than a threshold (Cohen, Greenberg,
+Immel and Brock 1986, "An efficient radiosity approach for realistic image synthesis": elements
+are subdivided where the radiosity gradient is large).
 Neighbours are patches sharing a corner, facing within the crease angle, of equal reflectance
 and emission. Splitting is by edge midpoints into four congruent children; the T-junctions it
 leaves between patches do no harm, since colours are read at the receiver nodes, which belong to
