@@ -9,7 +9,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from . import estimate, refine, solvers
+from . import estimate, nearfield, refine, solvers
 from .discretize import Discretization, discretize
 from .formfactors import METHODS, FormFactorEngine
 from .lights import DirectLighting
@@ -19,6 +19,7 @@ from .scene import Scene
 
 AUTO_PATCH_DIVISIONS = 4  # default patch size: the scene's extent over this (docs/benchmarks.md)
 COARSE_TOLERANCE = 10  # a level that will be refined stops at this times the tolerance
+NEAR_FIELD_FROM = 0.97  # the progress fraction where the near-field correction starts
 
 
 @dataclass(frozen=True)
@@ -45,6 +46,8 @@ class BakeSettings:
     refinement_threshold : a patch is split when its radiosity differs from a neighbour's on
         the same surface by more than this fraction of the mean radiosity of the patches that
         do not emit.
+    near_field : read the patches next to each vertex from their linear interpolants, not their
+        means (``nearfield``): the vertices along concave edges and contact lines.
     """
 
     patch_size: float | None = None
@@ -60,6 +63,7 @@ class BakeSettings:
     seed: int = 0
     refinement_levels: int = 0
     refinement_threshold: float = 0.25
+    near_field: bool = True
 
     def __post_init__(self) -> None:
         if self.patch_size is not None and not (math.isfinite(self.patch_size) and self.patch_size > 0):
@@ -145,7 +149,8 @@ def bake(
 
     level = _Level(engine, solver, settings, channels, node_direct)
     levels = settings.refinement_levels
-    span = (1.0 - start) / (1 + levels)
+    end = NEAR_FIELD_FROM if settings.near_field else 1.0
+    span = (end - start) / (1 + levels)
     previous_colors = None
     refinements = []
     for number in range(levels + 1):
@@ -176,6 +181,15 @@ def bake(
         colors = mesh.node_emission[:, :channels] + mesh.node_reflectance[:, :channels] * node_lighting
         change = None if previous_colors is None else estimate.level_change(mesh, colors, previous_colors)
         previous_colors = colors
+    if settings.near_field:
+        clock = time.perf_counter()
+        stages.stage("near field", NEAR_FIELD_FROM, 1.0)
+        near = nearfield.near_field(scene, mesh, radiosity, engine.point_form_factors)
+        point_lighting = engine.gather(near.points, near.normals, radiosity, lambda f: stages.report(f / 2))
+        point_lighting += direct.at_points(near.points, near.normals, lambda f: stages.report(0.5 + f / 2))[:, :channels]
+        node_lighting = nearfield.corrected_lighting(near, mesh, radiosity, node_lighting, point_lighting)
+        colors = mesh.node_emission[:, :channels] + mesh.node_reflectance[:, :channels] * node_lighting
+        seconds["near_field"], _ = _lap(clock)
     if change is None:
         change = estimate.corner_patch_gap(mesh, colors, radiosity, engine.receiving_points)
     clock = time.perf_counter()

@@ -1,8 +1,9 @@
 """Discretisation: input triangles -> patches (shooters and receivers of the linear system) and
 receiver nodes (the points where output colours are evaluated).
 
-Patches are the input triangles split regularly into congruent sub-triangles no longer than the
-patch size; the back of a two-sided triangle is a second set of patches facing the other way.
+Patches are the input triangles, first cut along the lines where other surfaces meet them
+(``contacts``), split regularly into congruent sub-triangles no longer than the patch size; the
+back of a two-sided triangle is a second set of patches facing the other way.
 Receiver nodes are one per distinct (vertex, material, smooth normal): the corners of the input
 triangles around a vertex are merged across edges whose faces share a material and meet at less
 than the crease angle, so colour may jump at creases and material borders.
@@ -15,6 +16,7 @@ from typing import Callable
 
 import numpy as np
 
+from . import contacts
 from .geometry import areas_and_normals, barycentric_grid, longest_edges, triangle_corners
 from .scene import Scene
 
@@ -38,6 +40,8 @@ class Discretization:
     patch_areas, patch_normals, patch_centroids : (P,), (P, 3), (P, 3).
     patch_reflectance, patch_emission : (P, C) with C = 3 channels.
     patch_triangle : (P,) int, the input triangle each patch comes from.
+    patch_piece : (P,) int, the piece of its input triangle a patch lies in when other surfaces
+        cut the triangle (``contacts``; pieces on either side of a contact line differ), else -1.
     front_patch_count : patches [0, F) are front sides, [F, P) the backs of two-sided triangles.
     back_of_front : (F,) int, index of the back patch of each front patch, or -1.
     node_points, node_normals : (N, 3) where and facing which way each node is evaluated.
@@ -53,6 +57,7 @@ class Discretization:
     patch_reflectance: np.ndarray
     patch_emission: np.ndarray
     patch_triangle: np.ndarray
+    patch_piece: np.ndarray
     front_patch_count: int
     back_of_front: np.ndarray
     node_points: np.ndarray
@@ -71,19 +76,28 @@ class Discretization:
 
 
 def discretize(scene: Scene, patch_size: float | None = None, crease_angle: float = np.radians(30),
-               report: Callable[[float], None] = lambda _fraction: None) -> Discretization:
-    """Split ``scene`` into patches no longer than ``patch_size`` (None: one patch per triangle)
-    and group triangle corners into receiver nodes (``crease_angle`` in radians); ``report``
-    hears the fraction done between steps."""
+               report: Callable[[float], None] = lambda _fraction: None, cut_contacts: bool = True) -> Discretization:
+    """Split ``scene`` into patches no longer than ``patch_size`` (None: one patch per triangle),
+    after cutting its triangles along contact lines (unless not ``cut_contacts``), and group
+    triangle corners into receiver nodes (``crease_angle`` in radians); ``report`` hears the
+    fraction done between steps."""
     corners = triangle_corners(scene.vertices, scene.triangles)
     areas, normals = areas_and_normals(corners)
     degenerate = areas <= DEGENERATE_AREA_RATIO * longest_edges(corners) ** 2
     if degenerate.all():
         raise ValueError("every triangle of the scene has zero area: there is nothing to light")
-    divisions = _divisions(corners, degenerate, patch_size)
-    front = _split_triangles(corners, divisions)
+    if cut_contacts:
+        pieces, piece_triangle = contacts.pieces(corners, degenerate)
+    else:
+        pieces, piece_triangle = corners, np.arange(len(corners))
+    piece_degenerate = degenerate[piece_triangle] | (
+        areas_and_normals(pieces)[0] <= DEGENERATE_AREA_RATIO * longest_edges(pieces) ** 2)
+    divisions = _divisions(pieces, piece_degenerate, patch_size)
+    front = _split_triangles(pieces, divisions)
     report(0.3)
-    patch_triangle = front["triangle"]
+    patch_triangle = piece_triangle[front["triangle"]]
+    cut = np.bincount(piece_triangle, minlength=len(corners))[piece_triangle] > 1
+    patch_piece = np.where(cut, np.arange(len(pieces)), -1)[front["triangle"]]
     sides = [front["corners"]]
     back_of_front = np.full(len(patch_triangle), -1, dtype=np.int64)
     back = np.flatnonzero(scene.two_sided[patch_triangle])
@@ -91,6 +105,7 @@ def discretize(scene: Scene, patch_size: float | None = None, crease_angle: floa
         back_of_front[back] = len(patch_triangle) + np.arange(len(back))
         sides.append(front["corners"][back][:, ::-1])
         patch_triangle = np.concatenate([patch_triangle, patch_triangle[back]])
+        patch_piece = np.concatenate([patch_piece, patch_piece[back]])
     patch_corners = np.concatenate(sides)
     patch_areas, patch_normals = areas_and_normals(patch_corners)
     report(0.4)
@@ -103,6 +118,7 @@ def discretize(scene: Scene, patch_size: float | None = None, crease_angle: floa
         patch_reflectance=scene.reflectance[patch_triangle],
         patch_emission=scene.emission[patch_triangle],
         patch_triangle=patch_triangle,
+        patch_piece=patch_piece,
         front_patch_count=len(back_of_front),
         back_of_front=back_of_front,
         **nodes,

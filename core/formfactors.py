@@ -63,6 +63,21 @@ class FormFactorEngine:
             mesh.patch_corners, mesh.patch_normals, mesh.patch_areas, self.visibility, rays_per_form_factor, seed,
             patch_owners=mesh.patch_triangle)
 
+    def point_form_factors(self, points: np.ndarray, normals: np.ndarray, receivers: np.ndarray,
+                           sources: np.ndarray) -> np.ndarray:
+        """(n,) ray-cast form factors from points[receivers] (facing normals[receivers]) to
+        patches ``sources``, pairwise, whatever the method (the hemicube's are per pixel, not per
+        pair)."""
+        return self._point_raycaster.form_factors(points, normals, receivers, sources)
+
+    @cached_property
+    def _point_raycaster(self) -> raycast.RayCaster:
+        if self.raycaster is not None:
+            return self.raycaster
+        mesh = self.mesh
+        return raycast.RayCaster(mesh.patch_corners, mesh.patch_normals, mesh.patch_areas, self.visibility,
+                                 raycast.DEFAULT_RAYS, 0, patch_owners=mesh.patch_triangle)
+
     @cached_property
     def _shot_receivers(self) -> tuple[np.ndarray, np.ndarray]:
         """Points and normals (P + N, 3) of everything a ray-cast shot reaches: patches, nodes."""
@@ -102,6 +117,8 @@ class FormFactorEngine:
     def gather(self, points: np.ndarray, normals: np.ndarray, radiosity: np.ndarray,
                report: Report = _quiet) -> np.ndarray:
         """(m, C) sum_q F(point -> q) B_q at each point, without storing F."""
+        if len(points) == 0:
+            return np.zeros((0, radiosity.shape[1]))
         sources = np.flatnonzero(radiosity.any(axis=1))
         parts = self._blocks(points, normals, sources, lambda block: block @ radiosity[sources], report)
         return np.concatenate(list(parts)).reshape(len(points), radiosity.shape[1])

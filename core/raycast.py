@@ -21,6 +21,7 @@ from .geometry import barycentric_grid
 from .visibility import RAY_EPSILON, Visibility
 
 _GOLDEN = (np.sqrt(5) - 1) / 2
+DEFAULT_RAYS = 16  # per form factor, where no setting chooses
 
 
 def check_ray_count(count: int) -> int:

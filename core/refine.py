@@ -130,6 +130,7 @@ def split(mesh: Discretization, chosen: np.ndarray) -> tuple[Discretization, np.
         patch_reflectance=mesh.patch_reflectance[origin],
         patch_emission=mesh.patch_emission[origin],
         patch_triangle=mesh.patch_triangle[origin],
+        patch_piece=mesh.patch_piece[origin],
         front_patch_count=len(front_parent),
         back_of_front=back_of_front,
     )

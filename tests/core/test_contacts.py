@@ -1,0 +1,78 @@
+"""Contact lines (core/contacts.py): a triangle is cut where another surface meets its inside,
+the pieces tile it exactly, and none straddles the line. Truths: the geometry itself (areas,
+which side of a known line each corner lies on)."""
+
+import numpy as np
+import pytest
+
+from core.contacts import pieces
+from core.discretize import discretize
+from core.geometry import areas_and_normals
+from tests.core.scenes import box, merge, quad, uniform
+
+FLOOR = quad([0, 0, 0], [1, 0, 0], [0, 1, 0])  # z = 0, faces +z, two triangles
+
+
+def _cut(*parts):
+    vertices, triangles = merge(*parts)
+    corners = vertices[triangles]
+    return corners, pieces(corners, np.zeros(len(corners), dtype=bool))
+
+
+def _assert_tiles(corners, parts, owner):
+    """The pieces of each triangle cover its area exactly and keep its normal."""
+    areas, normals = areas_and_normals(corners)
+    piece_areas, piece_normals = areas_and_normals(parts)
+    np.testing.assert_allclose(np.bincount(owner, piece_areas, len(corners)), areas, rtol=1e-12)
+    np.testing.assert_allclose(piece_normals, normals[owner], atol=1e-9)
+
+
+def test_a_wall_standing_on_the_floor_cuts_it_along_its_bottom_edge():
+    wall = quad([0.3, 0.2, 0], [0, 0.5, 0], [0, 0, 0.4])  # x = 0.3, from y = 0.2 to 0.7
+    corners, (parts, owner) = _cut(FLOOR, wall)
+    _assert_tiles(corners, parts, owner)
+    on_floor = owner < 2
+    assert on_floor.sum() > 2  # the floor was cut
+    side = parts[on_floor][..., 0] - 0.3  # signed distance to the line x = 0.3
+    assert np.all((side >= -1e-12).all(axis=1) | (side <= 1e-12).all(axis=1)), "a piece straddles the contact"
+    assert np.array_equal(parts[~on_floor], corners[2:])  # the wall itself meets the floor only at its edge
+
+
+def test_a_wall_through_the_floor_cuts_it_where_they_cross():
+    wall = quad([0.6, 0.1, -0.2], [0, 0.8, 0], [0, 0, 0.5])  # x = 0.6, reaching below z = 0
+    corners, (parts, owner) = _cut(FLOOR, wall)
+    _assert_tiles(corners, parts, owner)
+    side = parts[owner < 2][..., 0] - 0.6
+    assert np.all((side >= -1e-12).all(axis=1) | (side <= 1e-12).all(axis=1))
+    # and the floor cuts the wall along z = 0
+    height = parts[owner >= 2][..., 2]
+    assert (owner >= 2).sum() > 2
+    assert np.all((height >= -1e-12).all(axis=1) | (height <= 1e-12).all(axis=1))
+
+
+@pytest.mark.parametrize("lift", [1e-3, 0.1])
+def test_a_wall_above_the_floor_is_no_contact(lift):
+    wall = quad([0.3, 0.2, lift], [0, 0.5, 0], [0, 0, 0.4])
+    corners, (parts, owner) = _cut(FLOOR, wall)
+    assert np.array_equal(parts, corners) and np.array_equal(owner, np.arange(len(corners)))
+
+
+def test_faces_meeting_at_their_shared_edges_do_not_cut_each_other():
+    vertices, triangles = box()
+    corners = vertices[triangles]
+    parts, owner = pieces(corners, np.zeros(len(corners), dtype=bool))
+    assert np.array_equal(parts, corners) and np.array_equal(owner, np.arange(len(corners)))
+
+
+def test_discretisation_keeps_the_pieces_apart():
+    """Patches of the cut floor are numbered by piece (-1 where nothing cuts), the floor's
+    patches still cover its area, and the output nodes are the input vertices' as before."""
+    wall = quad([0.3, 0.2, 0], [0, 0.5, 0], [0, 0, 0.4])
+    vertices, triangles = merge(FLOOR, wall)
+    scene = uniform(vertices, triangles, 0.5, 0.0)
+    mesh = discretize(scene, 0.25)
+    floor = mesh.patch_triangle < 2
+    np.testing.assert_allclose(mesh.patch_areas[floor].sum(), 1.0, rtol=1e-12)
+    assert (mesh.patch_piece[floor] >= 0).all() and (mesh.patch_piece[~floor] == -1).all()
+    assert len(np.unique(mesh.patch_piece[floor])) > 2
+    assert mesh.node_count == len(discretize(uniform(*FLOOR, 0.5, 0.0), 0.25).node_points) + 4
