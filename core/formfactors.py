@@ -41,9 +41,10 @@ class FormFactorEngine:
         rays_per_form_factor: int = 16,
         seed: int = 0,
         visibility: Visibility | None = None,
+        probing: bool = False,
     ) -> None:
         """``visibility`` may be shared with an engine of the same scene (its triangles are
-        what occludes, whatever the patches)."""
+        what occludes, whatever the patches); ``probing``: see ``raycast.RayCaster``."""
         if method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
         self.mesh = mesh
@@ -61,7 +62,7 @@ class FormFactorEngine:
         self.receiving_points = receivers.receiving_points(mesh, self.visibility)
         self.raycaster = None if method == "hemicube" else raycast.RayCaster(
             mesh.patch_corners, mesh.patch_normals, mesh.patch_areas, self.visibility, rays_per_form_factor, seed,
-            patch_owners=mesh.patch_triangle)
+            patch_owners=mesh.patch_triangle, probing=probing)
 
     def point_form_factors(self, points: np.ndarray, normals: np.ndarray, receivers: np.ndarray,
                            sources: np.ndarray) -> np.ndarray:
@@ -162,10 +163,7 @@ class FormFactorEngine:
         chunks = np.array_split(np.arange(len(points)), min(pieces, len(points)))
 
         def one(receivers):
-            pairs = self.raycaster.form_factors(
-                points, normals, np.repeat(receivers, len(sources)), np.tile(sources, len(receivers))
-            )
-            return pairs.reshape(len(receivers), len(sources))
+            return self.raycaster.grid_form_factors(points[receivers], normals[receivers], sources)
 
         parts = []
         for part in parallel.map_ordered(one, chunks):
@@ -186,9 +184,7 @@ class FormFactorEngine:
         if self.method == "hemicube":
             full = hemicube.form_factor_rows(points, normals, self.resolution, self.visibility, mesh)
             return full[:, sources]
-        receivers = np.repeat(np.arange(len(points)), len(sources))
-        values = self.raycaster.form_factors(points, normals, receivers, np.tile(sources, len(points)))
-        return values.reshape(len(points), len(sources))
+        return self.raycaster.grid_form_factors(points, normals, sources)
 
 
 def form_factor_matrix(
@@ -200,9 +196,11 @@ def form_factor_matrix(
     hemicube_resolution: int = 64,
     rays_per_form_factor: int = 16,
     seed: int = 0,
+    probe_rays: bool = False,
 ) -> np.ndarray:
     """(T, T) float64 form factors F[i, j] from input triangle i to input triangle j (front
-    sides), occlusion by the other triangles included.
+    sides), occlusion by the other triangles included; ``probe_rays`` as in BakeSettings (off:
+    every ray is cast).
 
     Each triangle is one patch receiving at its centroid; with ``patch_size`` it is split into
     patches no longer than that, and F[i, j] = sum_{p in i} A_p/A_i sum_{q in j} F[p, q]
@@ -213,7 +211,7 @@ def form_factor_matrix(
     count = len(triangles)
     scene = Scene(vertices, triangles, np.zeros((count, 3)), np.zeros((count, 3)))
     mesh = discretize(scene, patch_size)
-    engine = FormFactorEngine(mesh, method, hemicube_resolution, rays_per_form_factor, seed)
+    engine = FormFactorEngine(mesh, method, hemicube_resolution, rays_per_form_factor, seed, probing=probe_rays)
     patch_matrix = engine.patch_rows(np.arange(mesh.patch_count))
     owner = mesh.patch_triangle  # sorted: a triangle's patches are consecutive
     present, starts = np.unique(owner, return_index=True)

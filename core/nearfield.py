@@ -29,7 +29,7 @@ from typing import Callable
 
 import numpy as np
 
-from . import spatial
+from . import parallel, spatial
 from .analytic import point_to_triangle
 from .discretize import NODE_INSET, Discretization
 from .geometry import barycentric_grid, longest_edges
@@ -42,6 +42,7 @@ NEAR_REACH = 1.25  # a patch is near a node whose point lies within this many lo
 QUADRATURE_DIVISIONS = 4
 REFINED = 2
 REFINEMENTS = 1
+PAIRS_PER_BLOCK = 1024  # pairs per block of that quadrature, spread over the threads
 # Corners of different patches closer than this fraction of the scene's extent share a node.
 CORNER_WELD = 1e-7
 ITERATION_TOLERANCE = 1e-10  # relative change of the colours at which the fixed point stops
@@ -199,9 +200,9 @@ def _where_seen(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray) 
     next to it)."""
     grid, cells = barycentric_grid(QUADRATURE_DIVISIONS)
     split = grid[cells]  # (S, 3 corners, 3 barycentric)
-    result = np.empty((len(points), 3))
-    for start in range(0, len(points), 4096):
-        chunk = slice(start, min(start + 4096, len(points)))
+
+    def block(start: int) -> np.ndarray:
+        chunk = slice(start, min(start + PAIRS_PER_BLOCK, len(points)))
         count = chunk.stop - chunk.start
         pieces = np.broadcast_to(split, (count, *split.shape))
         factors = _piece_form_factors(points[chunk], normals[chunk], triangles[chunk], pieces)
@@ -215,8 +216,10 @@ def _where_seen(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray) 
             factors = np.concatenate([factors, finer_factors], axis=1)
         moment = np.einsum("ks,ksb->kb", factors, pieces.mean(axis=2))
         total = factors.sum(axis=1, keepdims=True)
-        result[chunk] = np.divide(moment, total, out=np.full((count, 3), 1 / 3), where=total > 0)
-    return result
+        return np.divide(moment, total, out=np.full((count, 3), 1 / 3), where=total > 0)
+
+    parts = list(parallel.map_ordered(block, range(0, len(points), PAIRS_PER_BLOCK)))
+    return np.concatenate(parts) if parts else np.zeros((0, 3))
 
 
 def _piece_form_factors(points, normals, triangles, pieces) -> np.ndarray:

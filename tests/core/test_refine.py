@@ -62,11 +62,13 @@ def test_a_resumed_solve_matches_a_fresh_solve_of_the_refined_patches(solver, mo
     """Refining then resuming must reach the answer of solving the refined patches from scratch:
     with exact form factors (no occluder) only the stopping points (tolerance 1e-7) and rays
     grazing the room's inner edges differ: the parents' level-0 shots sampled visibility at
-    other points than their children's (measured 0.2 % at worst, on a dark corner).
+    other points than their children's (measured 0.2 % at worst, on a dark corner, with every
+    ray cast; with probe rays first, a grazing probe's verdict stands for its whole source:
+    0.6 %).
     (The hemicube's form factors from a parent are not the sum of its children's, so there a
     resumed solve differs from a fresh one by the hemicube's aliasing.)"""
     scene, method = open_room(), "raycast"
-    resumed = bake(scene, method, solver, refinement_levels=1, tolerance=1e-7)
+    resumed = bake(scene, method, solver, refinement_levels=1, tolerance=1e-7, probe_rays=False)
     assert resumed.stats["refinements"] and resumed.stats["refinements"][0]["split"] > 0
     # the fresh solve: discretise straight to the resumed bake's final patches
     bake_module = importlib.import_module("core.bake")
@@ -78,10 +80,10 @@ def test_a_resumed_solve_matches_a_fresh_solve_of_the_refined_patches(solver, mo
         return levels["refined"]
 
     monkeypatch.setattr(refine, "split", remember)
-    bake(scene, method, solver, refinement_levels=1, tolerance=1e-7)
+    bake(scene, method, solver, refinement_levels=1, tolerance=1e-7, probe_rays=False)
     refined_mesh = levels["refined"][0]
     monkeypatch.setattr(bake_module, "discretize", lambda *_args, **_kwargs: refined_mesh)
-    fresh = bake(scene, method, solver, refinement_levels=0, tolerance=1e-7)
+    fresh = bake(scene, method, solver, refinement_levels=0, tolerance=1e-7, probe_rays=False)
     np.testing.assert_allclose(resumed.corner_colors, fresh.corner_colors, rtol=5e-3)
 
 
