@@ -40,6 +40,39 @@ def pieces(corners: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.
     return np.concatenate(parts)[order], owner[order]
 
 
+def coplanar_overlaps(corners: np.ndarray, owners: np.ndarray) -> np.ndarray:
+    """(T,) bool: whether another triangle (of another owner) lies in each triangle's plane
+    (within CONTACT_TOLERANCE of its size) and overlaps its inside (z-fighting faces, a card's two
+    faces): neighbours that only share edges or corners do not count. Separating axes in the
+    plane: the two overlap unless the six edge normals part their projections by more than the
+    tolerance."""
+    areas, normals = areas_and_normals(corners)
+    valid = np.flatnonzero(areas > 0)
+    centres = corners[valid].mean(axis=1)
+    radii = np.linalg.norm(corners[valid] - centres[:, None], axis=2).max(axis=1)
+    first, second = spatial.overlapping(centres, radii, centres, radii)
+    a, b = valid[first], valid[second]
+    keep = (owners[a] != owners[b]) & (np.abs((normals[a] * normals[b]).sum(axis=1)) >= 1 - PARALLEL)
+    a, b = a[keep], b[keep]
+    tolerance = CONTACT_TOLERANCE * longest_edges(corners[a])
+    heights = np.einsum("kcx,kx->kc", corners[b] - corners[a][:, :1], normals[a])
+    a, b, tolerance = (x[(np.abs(heights) <= tolerance[:, None]).all(axis=1)] for x in (a, b, tolerance))
+    overlap = np.ones(len(a), dtype=bool)
+    for triangle in (a, b):
+        for i in range(3):
+            edge = corners[triangle, (i + 1) % 3] - corners[triangle, i]
+            axis = np.cross(normals[a], edge)
+            axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+            project_a = np.einsum("kcx,kx->kc", corners[a], axis)
+            project_b = np.einsum("kcx,kx->kc", corners[b], axis)
+            apart = (project_a.max(axis=1) <= project_b.min(axis=1) + tolerance) | \
+                (project_b.max(axis=1) <= project_a.min(axis=1) + tolerance)
+            overlap &= ~apart
+    result = np.zeros(len(corners), dtype=bool)
+    result[a[overlap]] = True
+    return result
+
+
 def _contact_lines(corners: np.ndarray, degenerate: np.ndarray) -> dict[int, list[tuple[np.ndarray, np.ndarray]]]:
     """For each triangle met by another inside, the lines (point, direction) that cut it."""
     valid = np.flatnonzero(~degenerate)
@@ -53,64 +86,61 @@ def _contact_lines(corners: np.ndarray, degenerate: np.ndarray) -> dict[int, lis
     size = longest_edges(corners)
     heights = np.einsum("kcx,kx->kc", corners[other] - corners[target][:, :1], normals[target])
     heights[np.abs(heights) <= CONTACT_TOLERANCE * size[target][:, None]] = 0
-    meets = (heights.min(axis=1) <= 0) & (heights.max(axis=1) >= 0)
+    meets = np.flatnonzero((heights.min(axis=1) <= 0) & (heights.max(axis=1) >= 0))
+    target, other, heights = target[meets], other[meets], heights[meets]
+    start, end, found = _plane_sections(corners[other], heights)
+    target, start, end = target[found], start[found], end[found]
+    inside = _crosses_inside(corners[target], normals[target], start, end, CONTACT_TOLERANCE * size[target])
     lines: dict[int, list] = {}
-    for k in np.flatnonzero(meets):
-        segment = _plane_section(corners[other[k]], heights[k])
-        if segment is None:
-            continue
-        t = target[k]
-        if _crosses_inside(corners[t], normals[t], segment, CONTACT_TOLERANCE * size[t]):
-            lines.setdefault(int(t), []).append(segment)
+    for t, a, b in zip(target[inside], start[inside], end[inside]):
+        lines.setdefault(int(t), []).append((a, b))
     return lines
 
 
-def _plane_section(triangle: np.ndarray, heights: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """The segment (start, end) where a triangle with corner ``heights`` over a plane (exact
-    zeros on it) meets the plane, or None if only at a point."""
-    points = [triangle[i] for i in range(3) if heights[i] == 0]
-    for i in range(3):
-        j = (i + 1) % 3
-        if heights[i] * heights[j] < 0:
-            points.append(triangle[i] + heights[i] / (heights[i] - heights[j]) * (triangle[j] - triangle[i]))
-    if len(points) < 2:
-        return None
-    points = np.array(points)
-    spread = np.linalg.norm(points - points[0], axis=1)
-    far = int(spread.argmax())
-    if spread[far] == 0:
-        return None
-    return points[0], points[far]
+def _plane_sections(triangles: np.ndarray, heights: np.ndarray):
+    """Where triangles (k, 3, 3) with corner ``heights`` (k, 3) over a plane (exact zeros on it)
+    meet the plane: segments (start, end) (k, 3) each, and (k,) bool, False where they meet it
+    at a point at most."""
+    following = [1, 2, 0]
+    h, g = heights, heights[:, following]
+    crosses = h * g < 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(crosses, h / (h - g), 0.0)
+    crossings = triangles + t[..., None] * (triangles[:, following] - triangles)
+    points = np.concatenate([triangles, crossings], axis=1)  # (k, 6, 3)
+    valid = np.concatenate([h == 0, crosses], axis=1)
+    first = valid.argmax(axis=1)
+    start = points[np.arange(len(points)), first]
+    spread = np.where(valid, np.linalg.norm(points - start[:, None], axis=2), -1.0)
+    far = spread.argmax(axis=1)
+    found = valid.any(axis=1) & (spread.max(axis=1) > 0)
+    return start, points[np.arange(len(points)), far], found
 
 
-def _crosses_inside(triangle: np.ndarray, normal: np.ndarray, segment, tolerance: float) -> bool:
-    """Whether the segment's line separates the triangle's corners (by more than ``tolerance``)
-    and the segment itself reaches inside the triangle."""
-    start, end = segment
+def _crosses_inside(triangles: np.ndarray, normals: np.ndarray, start: np.ndarray, end: np.ndarray,
+                    tolerance: np.ndarray) -> np.ndarray:
+    """(k,) bool: whether each segment's line separates its triangle's corners (by more than
+    ``tolerance``) and the segment itself reaches inside the triangle (its parameter range
+    clipped to the triangle's three inner half-planes is longer than the tolerance)."""
     direction = end - start
-    across = np.cross(normal, direction)
-    across /= np.linalg.norm(across)
-    side = (triangle - start) @ across
-    if side.min() >= -tolerance or side.max() <= tolerance:
-        return False
-    # clip the segment's parameter range to the triangle's three inner half-planes
-    low, high = 0.0, 1.0
+    across = np.cross(normals, direction)
+    across /= np.linalg.norm(across, axis=1, keepdims=True)
+    side = np.einsum("kcx,kx->kc", triangles - start[:, None], across)
+    separates = (side.min(axis=1) < -tolerance) & (side.max(axis=1) > tolerance)
+    low, high = np.zeros(len(start)), np.ones(len(start))
     for i in range(3):
-        edge = triangle[(i + 1) % 3] - triangle[i]
-        inward = np.cross(normal, edge)
-        inward /= np.linalg.norm(inward)
-        at_start = (start - triangle[i]) @ inward + tolerance
-        rate = direction @ inward
-        if abs(rate) < 1e-300:
-            if at_start < 0:
-                return False
-            continue
-        bound = -at_start / rate
-        if rate > 0:
-            low = max(low, bound)
-        else:
-            high = min(high, bound)
-    return high - low > tolerance / np.linalg.norm(direction)
+        edge = triangles[:, (i + 1) % 3] - triangles[:, i]
+        inward = np.cross(normals, edge)
+        inward /= np.linalg.norm(inward, axis=1, keepdims=True)
+        at_start = np.einsum("kx,kx->k", start - triangles[:, i], inward) + tolerance
+        rate = np.einsum("kx,kx->k", direction, inward)
+        parallel = np.abs(rate) < 1e-300
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = np.where(parallel, 0.0, -at_start / np.where(parallel, 1.0, rate))
+        low = np.where(~parallel & (rate > 0), np.maximum(low, bound), low)
+        high = np.where(~parallel & (rate < 0), np.minimum(high, bound), high)
+        high = np.where(parallel & (at_start < 0), -np.inf, high)
+    return separates & (high - low > tolerance / np.linalg.norm(direction, axis=1))
 
 
 def _cut(triangle: np.ndarray, lines: list) -> np.ndarray:

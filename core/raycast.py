@@ -85,6 +85,14 @@ class RayCaster:
         # disc term A / (pi S) of the weight, in the unit space of the visibility module
         self._unit_disc = (patch_areas * visibility.scale**2 / (np.pi * rays)).astype(np.float32)
         self._probe, self._rest = probe_samples(rays) if probing else (np.arange(rays), np.zeros(0, dtype=np.int64))
+        # sources with another face in their plane over them (``contacts.coplanar_overlaps``)
+        # need the first-hit rule below; for the others a ray stopped short of their plane tells
+        # the same, faster
+        self._contested = None
+        if patch_owners is not None:
+            contested = np.zeros(max(visibility.owners.max(), patch_owners.max()) + 1, dtype=bool)
+            contested[visibility.owners[visibility.coplanar_overlaps]] = True
+            self._contested = contested[patch_owners]
 
     @property
     def sample_bytes(self) -> int:
@@ -158,10 +166,24 @@ class RayCaster:
         rays = offset.shape[1]
         starts, directions = np.repeat(origin, rays, axis=0), offset.reshape(-1, 3)
         across = np.maximum(-cos_source, np.finfo(np.float32).tiny).reshape(-1)
+        # stop RAY_EPSILON short of the source's plane, measured across it: a grazing ray then
+        # cannot hit its own source through the rounding of the sample onto float32
         if self.owners is None:
-            # stop RAY_EPSILON short of the source's plane, measured across it: a grazing ray then
-            # cannot hit its own source through the rounding of the sample onto float32
             return self.visibility.occluded_unit(starts, directions, 1 - RAY_EPSILON / across).reshape(-1, rays)
+        contested = np.repeat(self._contested[sources], rays)
+        if not contested.any():
+            return self.visibility.occluded_unit(starts, directions, 1 - RAY_EPSILON / across).reshape(-1, rays)
+        blocked = np.zeros(len(starts), dtype=bool)
+        free = np.flatnonzero(~contested)
+        blocked[free] = self.visibility.occluded_unit(starts[free], directions[free], 1 - RAY_EPSILON / across[free])
+        chosen = np.flatnonzero(contested)
+        blocked[chosen] = self._first_hit_blocked(starts[chosen], directions[chosen], across[chosen],
+                                                  np.repeat(self.owners[sources], rays)[chosen])
+        return blocked.reshape(-1, rays)
+
+    def _first_hit_blocked(self, starts, directions, across, owners) -> np.ndarray:
+        """(n,) bool for rays towards sources of ``owners`` (n,) that another face shares a
+        plane with."""
         # reach RAY_EPSILON past the source's plane and look at what the ray meets first: the
         # source's own surface counts as seen; so does a face in the source's plane that turns
         # its back to the ray (the far side of a two-faced card); a coplanar face turned the
@@ -171,7 +193,7 @@ class RayCaster:
         visibility = self.visibility
         first = visibility.first_hit_unit(starts, directions, 1 + RAY_EPSILON / across)
         hit = np.maximum(first, 0)
-        blocked = (first >= 0) & (visibility.owners[hit] != np.repeat(self.owners[sources], rays))
+        blocked = (first >= 0) & (visibility.owners[hit] != owners)
         candidates = np.flatnonzero(blocked)
         hit_normals = visibility.triangle_normals[hit[candidates]]
         turned_away = (directions[candidates] * hit_normals).sum(axis=1) > 0
@@ -179,4 +201,4 @@ class RayCaster:
         in_plane = np.abs((target * hit_normals).sum(axis=1) - visibility.unit_plane_offsets[hit[candidates]]) \
             <= 2 * RAY_EPSILON
         blocked[candidates[turned_away & in_plane]] = False
-        return blocked.reshape(-1, rays)
+        return blocked
