@@ -62,7 +62,7 @@ class BakeSettings:
     max_shots: int | None = None
     max_iterations: int = 100_000
     memory_budget: int = 2 << 30
-    column_cache: int = 256 << 20
+    column_cache: int = 1 << 30
     seed: int = 0
     refinement_levels: int = 0
     refinement_threshold: float = 0.25
