@@ -408,9 +408,10 @@ def _reading(a: Analysis) -> list[str]:
         f"- The difference is at the edges: {100 * a.squared_share(a.touching):.0f} % of our squared error sits on "
         f"the {100 * a.touching.mean():.0f} % of corners where two surfaces meet; elsewhere our bias is "
         f"{pct(rest_bias)}. It is not Cycles' Principled BSDF, the light's back or where our nodes sit (see "
-        "\"What the difference does not come from\")." + a.refinement_sentence() + " Our reading: it is our "
-        "discretisation. Each patch has one radiosity, and a vertex on an edge gathers much of its light from "
-        "the patch just across the edge, whose one value is not the value at the edge.",
+        "\"What the difference does not come from\")." + a.refinement_sentence() + " Our reading: what is left "
+        "is our discretisation at the edges. A vertex on an edge gathers much of its light from the patch just "
+        "across it; the near field reads that patch as linear between its corner colours (docs/methods.md), "
+        "and the true profile next to a contact line is not linear.",
         "- Ours is smooth and systematic where Cycles' error is noise (grain from vertex to vertex): at equal "
         "NRMSE the two do not look alike.",
         *FINDINGS,
@@ -420,20 +421,13 @@ def _reading(a: Analysis) -> list[str]:
 # Findings of experiments this script does not repeat (they take minutes or edit the scene's meshes);
 # plain text, with how and when they were measured, so a rerun does not pretend to have checked them.
 FINDINGS: list[str] = [
-    "- Measured by hand on 2026-11-22 (not repeated by this script: the finer meshes take minutes to bake), "
-    "PREVIEW against the same kind of 1024-sample Cycles reference, as mean luminance ratios ours / Cycles "
-    "over the corners named. (1) At the ceiling's edges ours is too bright because the top of each wall is "
-    "darker than the mean of its patch (the light grazes it): with the three walls' grids cut 4 x finer (17 mm "
-    "cells, the ceiling's mesh unchanged; a 400 s bake), the 46 ceiling corners on the walls went from 1.221 to "
-    "1.075 (luminance RMS 26 % to 10 %) and the whole ceiling from 1.026 to 1.009; the REFERENCE preset (60 mm "
-    "patches) gives 1.114. (2) At the blocks' bottom edges the floor is not cut along the blocks' footprints, "
-    "so floor patches straddle the contact line, partly under the block: a block-bottom corner's ratio "
-    "correlated with the covered share of the floor cell in front of it (r = -0.53; about 0.33 at 91 % "
-    "covered, near 1 below 50 %), and cutting the floor 4 x finer did not cure it (short block bottom 0.831 to "
-    "0.843, luminance RMS 54 % to 29 %; tall block 0.887 to 0.784, 33 % to 40 %): the patches along the "
-    "contact line still straddle it. The same straddling patches let light under the blocks (the enclosed "
-    "corners above), which the blocks' two-sided inner faces reflect back. Remedies belong to the core or the "
-    "scene: patches cut along contact lines (discontinuity meshing), or a floor with the footprints cut out.",
+    "- Before the near field and the contact cuts (core of commit b1b9a2c; the previous run of this script, "
+    "2026-11-22): the default bake was 5.90 % from Cycles' converged answer, 96 % of its squared error on the "
+    "corners where two surfaces meet: the ceiling's corners on the walls 1.22 x too bright (the top of each "
+    "wall, grazed by the light, is darker than its patch's mean) and the blocks' bottom corners 0.83 x too dark "
+    "(the floor's patches straddled the blocks' footprints). Measured with bench/cycles_rescore.py on that run's "
+    "Cycles answer: the contact cuts alone took the default bake to 4.1 %, with the near field to 0.86 % (every "
+    "ray cast; probe rays, the default since, add about 0.1 %).",
 ]
 
 

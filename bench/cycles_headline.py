@@ -27,18 +27,17 @@ DEFAULT_METHOD = ("raycast", "progressive")  # scene.radiosity's defaults (the D
 DEFAULT_RUNS = 3  # the default bake is short: timed in this many processes, the median reported
 
 # Our converged reference: scene.radiosity settings beyond the TWIN preset's (CUSTOM knobs; patch
-# size in metres: the scene's extent is 0.96 m, so REFERENCE's patches are 60 mm, and this file's
-# input triangles, at most 97 mm, are not split by patches of 120 mm or more). The TWIN preset's bake
-# is its coarser twin: their difference shows whether the reference has converged. Measured by hand
-# on 2026-11-22 (cores of 50e43b5 and 9c4f415, against a 4096-sample Cycles mean): 16 against 64 rays
-# and tolerance 1e-4 against 1e-5 moved a 60 mm-patch bake by 0.25 % NRMSE, uniform patches of 60 mm
-# instead of the input triangles by 6.3 % (its bias against Cycles 5.0 %), two refinement levels
-# from the input triangles (16,110 patches, 720 s on a loaded machine) by 6.4 % (bias 3.7 %): the
-# patches, where light changes fast, are what the reference needs; more rays are not worth their time.
-# (Since re-chosen from docs/tradeoffs.md, REFERENCE is 60 mm patches, 16 rays, tolerance 1e-4: the
-# 60 mm-patch bake above.)
+# size in metres: the scene's extent is 0.96 m, so REFERENCE's patches are 60 mm; this file's input
+# triangles, at most 97 mm, are split by patches of 60 mm or less). The TWIN preset's bake is its
+# coarser twin: their difference shows whether the reference has converged. Measured by hand on
+# 2026-11-22 with the near field and contact cuts (bench/cycles_rescore.py, against the 16384-sample
+# Cycles mean of the previous run): 60 mm patches, 16 rays: 0.60 % from Cycles (noise removed); the
+# same with 64 rays, every ray cast: 0.27 % from it, 2 minutes; 45 mm patches (13,914 patches), 16 rays:
+# 0.33 % from the 60 mm bake and 0.56 % from Cycles, 5 minutes (its form-factor columns no longer
+# all fit the cache). Before the near field, refinement levels were what the reference needed (the
+# corners of contact edges); now the patches and rays converge together, slowly.
 TWIN = "REFERENCE"
-FINER = {"preset": "CUSTOM", "patch_size": 0.12, "rays": "16", "tolerance": 1e-4, "refinement_levels": 2}
+FINER = {"preset": "CUSTOM", "patch_size": 0.045, "rays": "16", "tolerance": 1e-4}
 # --quick: cheap stand-ins, to try the plumbing (not converged)
 QUICK_TWIN, QUICK_FINER = "PREVIEW", {"preset": "CUSTOM", "patch_size": 0.1, "rays": "36", "tolerance": 1e-5}
 

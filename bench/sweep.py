@@ -139,7 +139,8 @@ QUICK = {
                      presets=("DRAFT",)),
 }
 REFERENCES = {
-    "cornell": Reference("raycast", "jacobi", 24, (("rays_per_form_factor", 16), ("tolerance", 1e-6))),
+    "cornell": Reference("raycast", "jacobi", 24, (("probe_rays", False), ("rays_per_form_factor", 16),
+                                                   ("tolerance", 1e-6))),
     # ray casting: the hemicube's shooting through reciprocity, F_pq = A_q F_qp / A_p, gives Sponza's
     # smallest patches radiosities up to 4.7 times the sky's emission
     "sponza": Reference("raycast", "progressive", 4, (("max_shots", 2000), ("rays_per_form_factor", 4))),

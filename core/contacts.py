@@ -9,8 +9,8 @@ meshing for radiosity"; Lischinski, Tampieri and Greenberg 1992) puts patch edge
 
 A triangle U meets triangle T's plane along a segment where U's corners lie on both sides of the
 plane, or along an edge of U lying in it (within CONTACT_TOLERANCE of T's size). Each segment
-that passes through T's inside cuts T along its whole line: T becomes convex pieces, split in
-fans. Triangles of T's own plane are its neighbours, not contacts.
+that runs inside T cuts T along its whole line: T becomes convex
+pieces, split in fans. Triangles of T's own plane are its neighbours, not contacts.
 """
 
 from __future__ import annotations
@@ -48,9 +48,7 @@ def coplanar_overlaps(corners: np.ndarray, owners: np.ndarray) -> np.ndarray:
     tolerance."""
     areas, normals = areas_and_normals(corners)
     valid = np.flatnonzero(areas > 0)
-    centres = corners[valid].mean(axis=1)
-    radii = np.linalg.norm(corners[valid] - centres[:, None], axis=2).max(axis=1)
-    first, second = spatial.overlapping(centres, radii, centres, radii)
+    first, second = _touching_boxes(corners[valid])
     a, b = valid[first], valid[second]
     keep = (owners[a] != owners[b]) & (np.abs((normals[a] * normals[b]).sum(axis=1)) >= 1 - PARALLEL)
     a, b = a[keep], b[keep]
@@ -74,11 +72,9 @@ def coplanar_overlaps(corners: np.ndarray, owners: np.ndarray) -> np.ndarray:
 
 
 def _contact_lines(corners: np.ndarray, degenerate: np.ndarray) -> dict[int, list[tuple[np.ndarray, np.ndarray]]]:
-    """For each triangle met by another inside, the lines (point, direction) that cut it."""
+    """For each triangle met by another inside, the lines (start, end) that cut it."""
     valid = np.flatnonzero(~degenerate)
-    centres = corners[valid].mean(axis=1)
-    radii = np.linalg.norm(corners[valid] - centres[:, None], axis=2).max(axis=1)
-    first, second = spatial.overlapping(centres, radii, centres, radii)
+    first, second = _touching_boxes(corners[valid])
     target, other = valid[first], valid[second]
     _, normals = areas_and_normals(corners)
     crossing = np.abs((normals[target] * normals[other]).sum(axis=1)) < 1 - PARALLEL
@@ -90,11 +86,20 @@ def _contact_lines(corners: np.ndarray, degenerate: np.ndarray) -> dict[int, lis
     target, other, heights = target[meets], other[meets], heights[meets]
     start, end, found = _plane_sections(corners[other], heights)
     target, start, end = target[found], start[found], end[found]
-    inside = _crosses_inside(corners[target], normals[target], start, end, CONTACT_TOLERANCE * size[target])
+    inside = _length_inside(corners[target], normals[target], start, end, CONTACT_TOLERANCE * size[target]) > 0
     lines: dict[int, list] = {}
     for t, a, b in zip(target[inside], start[inside], end[inside]):
         lines.setdefault(int(t), []).append((a, b))
     return lines
+
+
+def _touching_boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs of triangles (k, 3, 3) whose bounding boxes, grown by CONTACT_TOLERANCE of the
+    triangle's size, touch: the candidates for meeting (each pair both ways, and each with
+    itself)."""
+    pad = (CONTACT_TOLERANCE * longest_edges(corners))[:, None]
+    low, high = corners.min(axis=1) - pad, corners.max(axis=1) + pad
+    return spatial.overlapping_boxes(low, high, low, high)
 
 
 def _plane_sections(triangles: np.ndarray, heights: np.ndarray):
@@ -117,21 +122,21 @@ def _plane_sections(triangles: np.ndarray, heights: np.ndarray):
     return start, points[np.arange(len(points)), far], found
 
 
-def _crosses_inside(triangles: np.ndarray, normals: np.ndarray, start: np.ndarray, end: np.ndarray,
-                    tolerance: np.ndarray) -> np.ndarray:
-    """(k,) bool: whether each segment's line separates its triangle's corners (by more than
-    ``tolerance``) and the segment itself reaches inside the triangle (its parameter range
-    clipped to the triangle's three inner half-planes is longer than the tolerance)."""
+def _length_inside(triangles: np.ndarray, normals: np.ndarray, start: np.ndarray, end: np.ndarray,
+                   tolerance: np.ndarray) -> np.ndarray:
+    """(k,) how long each segment runs inside its triangle (its parameter range clipped to the
+    triangle's three inner half-planes), or 0 where its line does not separate the triangle's
+    corners by more than ``tolerance`` or it runs inside for no more than that."""
     direction = end - start
     across = np.cross(normals, direction)
-    across /= np.linalg.norm(across, axis=1, keepdims=True)
+    across /= np.maximum(np.linalg.norm(across, axis=1, keepdims=True), np.finfo(float).tiny)
     side = np.einsum("kcx,kx->kc", triangles - start[:, None], across)
     separates = (side.min(axis=1) < -tolerance) & (side.max(axis=1) > tolerance)
     low, high = np.zeros(len(start)), np.ones(len(start))
     for i in range(3):
         edge = triangles[:, (i + 1) % 3] - triangles[:, i]
         inward = np.cross(normals, edge)
-        inward /= np.linalg.norm(inward, axis=1, keepdims=True)
+        inward /= np.maximum(np.linalg.norm(inward, axis=1, keepdims=True), np.finfo(float).tiny)
         at_start = np.einsum("kx,kx->k", start - triangles[:, i], inward) + tolerance
         rate = np.einsum("kx,kx->k", direction, inward)
         parallel = np.abs(rate) < 1e-300
@@ -140,7 +145,8 @@ def _crosses_inside(triangles: np.ndarray, normals: np.ndarray, start: np.ndarra
         low = np.where(~parallel & (rate > 0), np.maximum(low, bound), low)
         high = np.where(~parallel & (rate < 0), np.minimum(high, bound), high)
         high = np.where(parallel & (at_start < 0), -np.inf, high)
-    return separates & (high - low > tolerance / np.linalg.norm(direction, axis=1))
+    length = (high - low) * np.linalg.norm(direction, axis=1)
+    return np.where(separates & (length > tolerance), length, 0.0)
 
 
 def _cut(triangle: np.ndarray, lines: list) -> np.ndarray:

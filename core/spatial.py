@@ -1,62 +1,112 @@
-"""Which balls of one set overlap balls of another: a uniform grid instead of all pairs."""
+"""Which boxes (or balls) of one set overlap those of another: a uniform grid, not all pairs."""
 
 from __future__ import annotations
 
 import numpy as np
 
-# A ball is listed in every cell its bounding box overlaps; the cell grows until the listings
-# number at most this many per ball (plus a constant), so that one huge ball cannot blow it up.
-LISTINGS_PER_BALL = 64
+# A box is listed in every grid cell it overlaps; one overlapping more than LARGE_CELLS cells is
+# tested against every box of the other set instead.
+LARGE_CELLS = 4096
+# Candidate pairs made at once (about 50 bytes each): bounds the memory of a dense cell.
+PAIRS_PER_BLOCK = 1 << 22
+
+
+def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray,
+                      high_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i, j), each once, sorted, of axis-aligned boxes (corners (n, 3)) of a and b
+    that overlap or touch. The grid's cells are twice the median box size."""
+    empty = np.zeros(0, dtype=np.int64)
+    if len(low_a) == 0 or len(low_b) == 0:
+        return empty, empty
+    sizes = np.concatenate([high_a - low_a, high_b - low_b]).max(axis=1)
+    origin = np.minimum(low_a.min(axis=0), low_b.min(axis=0))
+    spread = float((np.maximum(high_a.max(axis=0), high_b.max(axis=0)) - origin).max())
+    cell = 2 * float(np.median(sizes[sizes > 0])) if (sizes > 0).any() else spread
+    cell = max(cell, spread / (1 << 20), np.finfo(float).tiny)  # at most 2^60 cells: int64 keys
+    boxes_a = _cells(low_a, high_a, origin, cell)
+    boxes_b = _cells(low_b, high_b, origin, cell)
+    large_a = np.flatnonzero(boxes_a[1].prod(axis=1) > LARGE_CELLS)
+    large_b = np.flatnonzero(boxes_b[1].prod(axis=1) > LARGE_CELLS)
+    small_a = np.setdiff1d(np.arange(len(low_a)), large_a)
+    small_b = np.setdiff1d(np.arange(len(low_b)), large_b)
+    parts = [_grid_pairs(boxes_a, small_a, boxes_b, small_b, (low_a, high_a, low_b, high_b)),
+             _every_pair(low_a, high_a, large_a, low_b, high_b, np.arange(len(low_b)))]
+    second, first = _every_pair(low_b, high_b, large_b, low_a, high_a, small_a)
+    parts.append((first, second))
+    keys = np.unique(np.concatenate([a * len(low_b) + b for a, b in parts]))
+    return keys // len(low_b), keys % len(low_b)
 
 
 def overlapping(centres_a: np.ndarray, radii_a: np.ndarray, centres_b: np.ndarray,
                 radii_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Index pairs (i, j), each once, with |centres_a[i] - centres_b[j]| < radii_a[i] +
-    radii_b[j]; centres (n, 3), radii (n,) >= 0."""
-    empty = np.zeros(0, dtype=np.int64)
-    if len(centres_a) == 0 or len(centres_b) == 0:
-        return empty, empty
-    origin = np.minimum((centres_a - radii_a[:, None]).min(axis=0), (centres_b - radii_b[:, None]).min(axis=0))
-    radii = np.concatenate([radii_a, radii_b])
-    spread = np.ptp(np.concatenate([centres_a, centres_b]), axis=0).max()
-    cell = 2 * float(np.median(radii[radii > 0])) if (radii > 0).any() else spread
-    cell = max(cell, spread * 1e-6, np.finfo(float).tiny)
-    balls = len(centres_a) + len(centres_b)
-    while True:
-        boxes_a, boxes_b = _boxes(centres_a, radii_a, origin, cell), _boxes(centres_b, radii_b, origin, cell)
-        if boxes_a[1].prod(axis=1).sum() + boxes_b[1].prod(axis=1).sum() <= LISTINGS_PER_BALL * balls + 4096:
-            break
-        cell *= 2
-    cells_a, owner_a = _listings(*boxes_a)
-    cells_b, owner_b = _listings(*boxes_b)
-    shape = tuple(np.maximum(cells_a.max(axis=0), cells_b.max(axis=0)) + 1)
-    key_a = np.ravel_multi_index(cells_a.T, shape)
-    key_b = np.ravel_multi_index(cells_b.T, shape)
-    order = np.argsort(key_b, kind="stable")
-    key_b, owner_b = key_b[order], owner_b[order]
-    start = np.searchsorted(key_b, key_a, side="left")
-    count = np.searchsorted(key_b, key_a, side="right") - start
-    first = np.repeat(owner_a, count)
-    second = owner_b[np.repeat(start, count) + _ranks(count)]
-    pairs = np.unique(first * len(centres_b) + second)
-    first, second = pairs // len(centres_b), pairs % len(centres_b)
+    """Index pairs (i, j), each once, sorted, with |centres_a[i] - centres_b[j]| < radii_a[i]
+    + radii_b[j]; centres (n, 3), radii (n,) >= 0."""
+    first, second = overlapping_boxes(centres_a - radii_a[:, None], centres_a + radii_a[:, None],
+                                      centres_b - radii_b[:, None], centres_b + radii_b[:, None])
     close = np.linalg.norm(centres_a[first] - centres_b[second], axis=1) < radii_a[first] + radii_b[second]
     return first[close], second[close]
 
 
-def _boxes(centres: np.ndarray, radii: np.ndarray, origin: np.ndarray, cell: float):
-    """(n, 3) lowest grid cell of each ball's bounding box and (n, 3) its extent in cells."""
-    low = np.floor((centres - radii[:, None] - origin) / cell).astype(np.int64)
-    return low, np.floor((centres + radii[:, None] - origin) / cell).astype(np.int64) - low + 1
+def _boxes_touch(low_a, high_a, first, low_b, high_b, second) -> np.ndarray:
+    return ((low_a[first] <= high_b[second]) & (low_b[second] <= high_a[first])).all(axis=1)
 
 
-def _listings(low: np.ndarray, spans: np.ndarray):
+def _grid_pairs(boxes_a, chosen_a, boxes_b, chosen_b, corners):
+    """The touching pairs among the chosen boxes, through the cells they share."""
+    empty = np.zeros(0, dtype=np.int64)
+    if len(chosen_a) == 0 or len(chosen_b) == 0:
+        return empty, empty
+    low_a, high_a, low_b, high_b = corners
+    cells_a, owner_a = _listings(boxes_a[0][chosen_a], boxes_a[1][chosen_a])
+    cells_b, owner_b = _listings(boxes_b[0][chosen_b], boxes_b[1][chosen_b])
+    shape = tuple(np.maximum(cells_a.max(axis=0), cells_b.max(axis=0)) + 1)
+    key_a = np.ravel_multi_index(cells_a.T, shape)
+    key_b = np.ravel_multi_index(cells_b.T, shape)
+    order = np.argsort(key_b, kind="stable")
+    key_b, owner_b = key_b[order], chosen_b[owner_b[order]]
+    owner_a = chosen_a[owner_a]
+    start = np.searchsorted(key_b, key_a, side="left")
+    count = np.searchsorted(key_b, key_a, side="right") - start
+    total = np.cumsum(count)
+    found, begin = [empty], 0
+    while begin < len(key_a):  # listings of a in blocks of at most PAIRS_PER_BLOCK candidate pairs
+        end = max(begin + 1, int(np.searchsorted(total, (total[begin - 1] if begin else 0) + PAIRS_PER_BLOCK)))
+        block = slice(begin, end)
+        first = np.repeat(owner_a[block], count[block])
+        second = owner_b[np.repeat(start[block], count[block]) + _ranks(count[block])]
+        touch = _boxes_touch(low_a, high_a, first, low_b, high_b, second)
+        found.append(np.unique(first[touch] * len(low_b) + second[touch]))
+        begin = end
+    keys = np.unique(np.concatenate(found))
+    return keys // len(low_b), keys % len(low_b)
+
+
+def _every_pair(low_a, high_a, chosen_a, low_b, high_b, chosen_b):
+    """The touching pairs of the chosen boxes of a with the chosen of b, all tested."""
+    firsts, seconds = [np.zeros(0, dtype=np.int64)], [np.zeros(0, dtype=np.int64)]
+    rows = max(1, PAIRS_PER_BLOCK // max(1, len(chosen_b)))
+    for begin in range(0, len(chosen_a), rows):
+        block = chosen_a[begin:begin + rows]
+        touch = ((low_a[block, None] <= high_b[None, chosen_b]) & (low_b[None, chosen_b] <= high_a[block, None])).all(axis=2)
+        row, column = np.nonzero(touch)
+        firsts.append(block[row])
+        seconds.append(chosen_b[column])
+    return np.concatenate(firsts), np.concatenate(seconds)
+
+
+def _cells(low: np.ndarray, high: np.ndarray, origin: np.ndarray, cell: float):
+    """(n, 3) lowest grid cell of each box and (n, 3) its extent in cells."""
+    first = np.floor((low - origin) / cell).astype(np.int64)
+    return first, np.floor((high - origin) / cell).astype(np.int64) - first + 1
+
+
+def _listings(first: np.ndarray, spans: np.ndarray):
     """(L, 3) grid cells of each box, and (L,) the box of each."""
     counts = spans.prod(axis=1)
-    owner = np.repeat(np.arange(len(low)), counts)
+    owner = np.repeat(np.arange(len(first)), counts)
     offset, span = _ranks(counts), spans[owner]
-    cells = low[owner] + np.stack([offset // (span[:, 1] * span[:, 2]), (offset // span[:, 2]) % span[:, 1],
-                                   offset % span[:, 2]], axis=1)
+    cells = first[owner] + np.stack([offset // (span[:, 1] * span[:, 2]), (offset // span[:, 2]) % span[:, 1],
+                                     offset % span[:, 2]], axis=1)
     return cells, owner
 
 

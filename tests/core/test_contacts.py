@@ -5,7 +5,7 @@ which side of a known line each corner lies on)."""
 import numpy as np
 import pytest
 
-from core.contacts import pieces
+from core.contacts import coplanar_overlaps, pieces
 from core.discretize import discretize
 from core.geometry import areas_and_normals
 from tests.core.scenes import box, merge, quad, uniform
@@ -28,21 +28,23 @@ def _assert_tiles(corners, parts, owner):
 
 
 def test_a_wall_standing_on_the_floor_cuts_it_along_its_bottom_edge():
-    wall = quad([0.3, 0.2, 0], [0, 0.5, 0], [0, 0, 0.4])  # x = 0.3, from y = 0.2 to 0.7
+    """The wall, meshed as two quads side by side, meets the floor along one line, which cuts
+    both floor triangles."""
+    wall = merge(quad([0.5, 0.0, 0], [0, 0.5, 0], [0, 0, 0.4]), quad([0.5, 0.5, 0], [0, 0.5, 0], [0, 0, 0.4]))
     corners, (parts, owner) = _cut(FLOOR, wall)
     _assert_tiles(corners, parts, owner)
     on_floor = owner < 2
-    assert on_floor.sum() > 2  # the floor was cut
-    side = parts[on_floor][..., 0] - 0.3  # signed distance to the line x = 0.3
+    assert on_floor.sum() == 6  # each floor triangle: a triangle and a quadrilateral (two)
+    side = parts[on_floor][..., 0] - 0.5  # signed distance to the line x = 0.5
     assert np.all((side >= -1e-12).all(axis=1) | (side <= 1e-12).all(axis=1)), "a piece straddles the contact"
     assert np.array_equal(parts[~on_floor], corners[2:])  # the wall itself meets the floor only at its edge
 
 
 def test_a_wall_through_the_floor_cuts_it_where_they_cross():
-    wall = quad([0.6, 0.1, -0.2], [0, 0.8, 0], [0, 0, 0.5])  # x = 0.6, reaching below z = 0
+    wall = quad([0.5, 0.0, -0.2], [0, 1.0, 0], [0, 0, 0.5])  # x = 0.5, reaching below z = 0
     corners, (parts, owner) = _cut(FLOOR, wall)
     _assert_tiles(corners, parts, owner)
-    side = parts[owner < 2][..., 0] - 0.6
+    side = parts[owner < 2][..., 0] - 0.5
     assert np.all((side >= -1e-12).all(axis=1) | (side <= 1e-12).all(axis=1))
     # and the floor cuts the wall along z = 0
     height = parts[owner >= 2][..., 2]
@@ -67,7 +69,7 @@ def test_faces_meeting_at_their_shared_edges_do_not_cut_each_other():
 def test_discretisation_keeps_the_pieces_apart():
     """Patches of the cut floor are numbered by piece (-1 where nothing cuts), the floor's
     patches still cover its area, and the output nodes are the input vertices' as before."""
-    wall = quad([0.3, 0.2, 0], [0, 0.5, 0], [0, 0, 0.4])
+    wall = quad([0.5, 0.0, 0], [0, 1.0, 0], [0, 0, 0.4])
     vertices, triangles = merge(FLOOR, wall)
     scene = uniform(vertices, triangles, 0.5, 0.0)
     mesh = discretize(scene, 0.25)
@@ -76,3 +78,18 @@ def test_discretisation_keeps_the_pieces_apart():
     assert (mesh.patch_piece[floor] >= 0).all() and (mesh.patch_piece[~floor] == -1).all()
     assert len(np.unique(mesh.patch_piece[floor])) > 2
     assert mesh.node_count == len(discretize(uniform(*FLOOR, 0.5, 0.0), 0.25).node_points) + 4
+
+
+def test_coplanar_overlaps_flag_faces_over_each_other_not_neighbours():
+    """Two squares of a floor side by side share an edge: not overlapping. A third square laid
+    half over one of them (z-fighting), or the other face of a card (opposite normal): overlapping,
+    both ways. Owners group triangles: a quad's own two triangles never count."""
+    left, right = quad([0, 0, 0], [1, 0, 0], [0, 1, 0]), quad([1, 0, 0], [1, 0, 0], [0, 1, 0])
+    over = quad([0.5, 0, 0], [1, 0, 0], [0, 1, 0])
+    card_back = quad([0, 0, 0], [0, 1, 0], [1, 0, 0])  # the left square's back face
+    for parts, expected in [((left, right), [False] * 4),
+                            ((left, right, over), [True] * 6),
+                            ((left, card_back), [True] * 4)]:
+        vertices, triangles = merge(*parts)
+        owners = np.arange(len(triangles)) // 2
+        np.testing.assert_array_equal(coplanar_overlaps(vertices[triangles], owners), expected)
