@@ -36,12 +36,13 @@ from .geometry import barycentric_grid, longest_edges
 from .scene import Scene
 
 NEAR_REACH = 1.25  # a patch is near a node whose point lies within this many longest edges of its centroid
-# Where a node looks on a patch: the patch split into 4 x 4 pieces, the 2 pieces it sees most of
-# split again (46 exact form factors per pair). Sample Cornell box against Cycles: 0.96 %; a
-# uniform split 4 x 4: 1.31 %, 8 x 8: 1.02 %, 16 x 16 (256 per pair): 0.95 %.
+# Where a node looks on a patch: the patch split into 4 x 4 pieces, and where one piece holds
+# more than PEAKED of the form factor, the 2 it sees most of split again (46 exact form factors
+# per pair). Sample Cornell box against Cycles: 0.96 %; a uniform split 4 x 4: 1.31 %, 8 x 8:
+# 1.02 %, 16 x 16 (256 per pair): 0.95 %.
 QUADRATURE_DIVISIONS = 4
 REFINED = 2
-REFINEMENTS = 1
+PEAKED = 0.25
 PAIRS_PER_BLOCK = 1024  # pairs per block of that quadrature, spread over the threads
 # Corners of different patches closer than this fraction of the scene's extent share a node.
 CORNER_WELD = 1e-7
@@ -50,6 +51,9 @@ MAX_ITERATIONS = 200
 # Patches below this fraction of the area-mean radiosity of the patches that do not emit are left
 # to their constant: their correction would be below it too.
 DARK = 1e-2
+# Point-patch pairs the gather at the interpolation nodes may cost (about 20 s of one core): in
+# a large scene (Sponza: tens of thousands of interpolation nodes) they are left out.
+GATHER_BUDGET = 50_000_000
 
 FormFactors = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 
@@ -95,9 +99,16 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
     scale = mesh.patch_areas[quiet] @ brightest[quiet] / max(mesh.patch_areas[quiet].sum(), np.finfo(float).tiny)
     lit = brightest > DARK * scale
     receivers, patches, factors = _near_pairs(mesh.node_points, mesh.node_normals, mesh, lit, form_factors)
-    # interpolation nodes at the corners of those patches that have no output node
+    # interpolation nodes at the corners of those patches that have no output node, unless
+    # gathering at them all would cost more than GATHER_BUDGET point-patch pairs (then only
+    # patches whose corners are all output nodes are read as linear)
     needed = np.unique(patches)
     missing = corner_output[needed] < 0
+    if len(np.unique(corner_key[needed][missing])) * lit.sum() > GATHER_BUDGET:
+        whole = (corner_output[patches] >= 0).all(axis=1)
+        receivers, patches, factors = receivers[whole], patches[whole], factors[whole]
+        needed = np.unique(patches)
+        missing = corner_output[needed] < 0
     keys, first = np.unique(corner_key[needed][missing], return_index=True)
     slot = np.full(corner_key.max() + 1 if len(corner_key) else 0, -1)
     slot[keys] = node_count + np.arange(len(keys))
@@ -182,11 +193,17 @@ def _patch_corner_nodes(scene: Scene, mesh: Discretization) -> tuple[np.ndarray,
 def _near_pairs(points: np.ndarray, normals: np.ndarray, mesh: Discretization, lit: np.ndarray,
                 form_factors: FormFactors) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(receiver, patch, F) for each ``lit`` patch whose centroid lies within NEAR_REACH of its
-    longest edge of the point, and which the point sees (F > 0)."""
+    longest edge of the point, and whose bounding box within NEAR_REACH of the median longest
+    edge (a patch much larger than the others is near only the points close to it), and which
+    the point sees (F > 0)."""
     candidates = np.flatnonzero(lit)
-    reach = NEAR_REACH * longest_edges(mesh.patch_corners[candidates])
-    receivers, patches = spatial.overlapping(points, np.zeros(len(points)), mesh.patch_centroids[candidates], reach)
+    edges = longest_edges(mesh.patch_corners)
+    corners = mesh.patch_corners[candidates]
+    pad = NEAR_REACH * np.minimum(edges[candidates], np.median(edges))[:, None]
+    receivers, patches = spatial.overlapping_boxes(points, points, corners.min(axis=1) - pad, corners.max(axis=1) + pad)
     patches = candidates[patches]
+    close = np.linalg.norm(points[receivers] - mesh.patch_centroids[patches], axis=1) < NEAR_REACH * edges[patches]
+    receivers, patches = receivers[close], patches[close]
     factors = form_factors(points, normals, receivers, patches) if len(receivers) else np.zeros(0)
     seen = factors > 0
     return receivers[seen], patches[seen], factors[seen]
@@ -195,28 +212,30 @@ def _near_pairs(points: np.ndarray, normals: np.ndarray, mesh: Discretization, l
 def _where_seen(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """(K, 3) barycentric centroid of each triangle weighted by the unoccluded form factor from
     the point: sum over pieces s of F(point -> s) times the centroid of s, over F. The pieces
-    are a QUADRATURE_DIVISIONS**2 split, whose REFINED pieces of largest form factor are split
-    the same way, REFINEMENTS times: graded towards where the point looks (at point-blank range,
-    next to it)."""
+    are a QUADRATURE_DIVISIONS**2 split; where one piece holds more than PEAKED of the form
+    factor (the point close to the triangle), the REFINED largest are split the same way again:
+    graded towards where the point looks."""
     grid, cells = barycentric_grid(QUADRATURE_DIVISIONS)
     split = grid[cells]  # (S, 3 corners, 3 barycentric)
+    centroids = split.mean(axis=1)
 
     def block(start: int) -> np.ndarray:
         chunk = slice(start, min(start + PAIRS_PER_BLOCK, len(points)))
-        count = chunk.stop - chunk.start
-        pieces = np.broadcast_to(split, (count, *split.shape))
-        factors = _piece_form_factors(points[chunk], normals[chunk], triangles[chunk], pieces)
-        for _ in range(REFINEMENTS):
-            largest = np.argsort(-factors, axis=1)[:, :REFINED]  # (k, R)
-            chosen = np.take_along_axis(pieces, largest[..., None, None], axis=1)  # (k, R, 3, 3)
-            finer = np.einsum("tcb,krbd->krtcd", split, chosen).reshape(count, -1, 3, 3)
-            finer_factors = _piece_form_factors(points[chunk], normals[chunk], triangles[chunk], finer)
-            np.put_along_axis(factors, largest, 0.0, axis=1)
-            pieces = np.concatenate([pieces, finer], axis=1)
-            factors = np.concatenate([factors, finer_factors], axis=1)
-        moment = np.einsum("ks,ksb->kb", factors, pieces.mean(axis=2))
-        total = factors.sum(axis=1, keepdims=True)
-        return np.divide(moment, total, out=np.full((count, 3), 1 / 3), where=total > 0)
+        point, normal, triangle = points[chunk], normals[chunk], triangles[chunk]
+        count = len(point)
+        factors = _piece_form_factors(point, normal, triangle, np.broadcast_to(split, (count, *split.shape)))
+        moment, total = factors @ centroids, factors.sum(axis=1)
+        peaked = np.flatnonzero(factors.max(axis=1) > PEAKED * total)
+        if len(peaked):
+            largest = np.argsort(-factors[peaked], axis=1)[:, :REFINED]  # (k, R)
+            chosen = split[largest]  # (k, R, 3, 3)
+            finer = np.einsum("tcb,krbd->krtcd", split, chosen).reshape(len(peaked), -1, 3, 3)
+            finer_factors = _piece_form_factors(point[peaked], normal[peaked], triangle[peaked], finer)
+            replaced = np.take_along_axis(factors[peaked], largest, axis=1)  # (k, R)
+            moment[peaked] += np.einsum("km,kmb->kb", finer_factors, finer.mean(axis=2)) \
+                - np.einsum("kr,krb->kb", replaced, centroids[largest])
+            total[peaked] += finer_factors.sum(axis=1) - replaced.sum(axis=1)
+        return np.divide(moment, total[:, None], out=np.full((count, 3), 1 / 3), where=total[:, None] > 0)
 
     parts = list(parallel.map_ordered(block, range(0, len(points), PAIRS_PER_BLOCK)))
     return np.concatenate(parts) if parts else np.zeros((0, 3))

@@ -26,8 +26,8 @@ class Preset(NamedTuple):
 # patches for the same error there (extent / 4 and one level: 8.8 s, 4.1 %), so no preset uses
 # them; they tighten the error estimate. The descriptions quote the measured time and error.
 PRESETS: dict[str, Preset] = {
-    "DRAFT": Preset("Draft", "Large patches, 4 rays, 1 % of the light unshot. Cornell box: 0.9 s, 8.4 % from converged",
-                    2, 4, 1e-2),
+    "DRAFT": Preset("Draft", "Large patches, 16 rays, 1 % of the light unshot. Cornell box: 0.9 s, 8.4 % from converged",
+                    2, 16, 1e-2),
     "PREVIEW": Preset("Preview", "The defaults: patches a quarter of the scene, 16 rays, 0.1 % unshot. "
                       "Cornell box: 1.7 s, 6.4 % from converged", 4, 16, 1e-3),
     "PRODUCTION": Preset("Production", "Patches an eighth of the scene, 16 rays, 0.1 % unshot. "
