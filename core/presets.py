@@ -21,19 +21,20 @@ class Preset(NamedTuple):
 
 # Chosen from the Pareto fronts of docs/tradeoffs.md (bench/sweep.py; Cornell box of 736 triangles,
 # NRMSE of the corner colours against a converged bake): the patch size is what buys accuracy;
-# beyond 16 rays and a tolerance of 1e-3 the error hardly moves (64 rays and 1e-4 at patches of
-# extent / 8: 2.5 % instead of 3.0 %, for 3 x the time). Refinement levels cost more than uniform
-# patches for the same error there (extent / 4 and one level: 8.8 s, 4.1 %), so no preset uses
-# them; they tighten the error estimate. The descriptions quote the measured time and error.
+# beyond 16 rays (the probe rays make 16 cost about what 4 do) and a tolerance of 1e-3 the error
+# hardly moves. Refinement levels cost more than finer uniform patches for the same error there
+# (extent / 4 and one level: 2.7 s, 0.56 %), so no preset uses them. On this box the input
+# triangles are smaller than extent / 2 and / 4 patches, so Draft and Preview bake alike there;
+# Draft is for scenes of large triangles. The descriptions quote the measured time and error.
 PRESETS: dict[str, Preset] = {
-    "DRAFT": Preset("Draft", "Large patches, 16 rays, 1 % of the light unshot. Cornell box: 0.9 s, 8.4 % from converged",
+    "DRAFT": Preset("Draft", "Large patches, 16 rays, 1 % of the light unshot. Cornell box: 0.6 s, 2.1 % from converged",
                     2, 16, 1e-2),
     "PREVIEW": Preset("Preview", "The defaults: patches a quarter of the scene, 16 rays, 0.1 % unshot. "
-                      "Cornell box: 1.7 s, 6.4 % from converged", 4, 16, 1e-3),
+                      "Cornell box: 0.6 s, 2.1 % from converged", 4, 16, 1e-3),
     "PRODUCTION": Preset("Production", "Patches an eighth of the scene, 16 rays, 0.1 % unshot. "
-                         "Cornell box: 4.3 s, 3.0 % from converged", 8, 16, 1e-3),
+                         "Cornell box: 1.5 s, 0.6 % from converged", 8, 16, 1e-3),
     "REFERENCE": Preset("Reference", "Patches a sixteenth of the scene, 16 rays, 0.01 % unshot: to check other "
-                        "bakes against. Cornell box: 40 s, 2.1 % from converged", 16, 16, 1e-4),
+                        "bakes against. Cornell box: 11 s, 0.3 % from converged", 16, 16, 1e-4),
 }
 
 
