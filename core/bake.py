@@ -192,7 +192,8 @@ def bake(
         stages.stage("near field", NEAR_FIELD_FROM, 1.0)
         near = nearfield.near_field(scene, mesh, radiosity, engine.point_form_factors)
         point_lighting = engine.gather(near.points, near.normals, radiosity, lambda f: stages.report(f / 2))
-        point_lighting += direct.at_points(near.points, near.normals, lambda f: stages.report(0.5 + f / 2))[:, :channels]
+        direct_light = direct.at_points(near.points, near.normals, lambda f: stages.report(0.5 + f / 2))
+        point_lighting += direct_light[:, :channels]
         node_lighting = nearfield.corrected_lighting(near, mesh, radiosity, node_lighting, point_lighting)
         colors = mesh.node_emission[:, :channels] + mesh.node_reflectance[:, :channels] * node_lighting
         seconds["near_field"], _ = _lap(clock)

@@ -246,4 +246,5 @@ def _piece_form_factors(points, normals, triangles, pieces) -> np.ndarray:
     of its triangle (k, 3, 3)."""
     count, per = pieces.shape[:2]
     corners = np.einsum("kmcb,kbx->kmcx", pieces, triangles).reshape(-1, 3, 3)
-    return point_to_triangle(np.repeat(points, per, axis=0), np.repeat(normals, per, axis=0), corners).reshape(count, per)
+    factors = point_to_triangle(np.repeat(points, per, axis=0), np.repeat(normals, per, axis=0), corners)
+    return factors.reshape(count, per)

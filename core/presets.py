@@ -27,8 +27,8 @@ class Preset(NamedTuple):
 # triangles are smaller than extent / 2 and / 4 patches, so Draft and Preview bake alike there;
 # Draft is for scenes of large triangles. The descriptions quote the measured time and error.
 PRESETS: dict[str, Preset] = {
-    "DRAFT": Preset("Draft", "Large patches, 16 rays, 1 % of the light unshot. Cornell box: 0.6 s, 2.1 % from converged",
-                    2, 16, 1e-2),
+    "DRAFT": Preset("Draft", "Large patches, 16 rays, 1 % of the light unshot. "
+                    "Cornell box: 0.6 s, 2.1 % from converged", 2, 16, 1e-2),
     "PREVIEW": Preset("Preview", "The defaults: patches a quarter of the scene, 16 rays, 0.1 % unshot. "
                       "Cornell box: 0.6 s, 2.1 % from converged", 4, 16, 1e-3),
     "PRODUCTION": Preset("Production", "Patches an eighth of the scene, 16 rays, 0.1 % unshot. "

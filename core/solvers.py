@@ -14,9 +14,9 @@ from typing import Callable
 import numpy as np
 
 SOLVERS = ("progressive", "jacobi", "gauss_seidel")
-# Progressive refinement shoots, with the brightest patch, the other patches whose columns are at
-# hand and whose unshot power is at least this share of its: one matrix product instead of a
-# loop of shots (a block of Southwell's method), which changes little in what is shot.
+# Progressive refinement shoots, with the brightest patch, every patch whose unshot power is at
+# least this share of its: one matrix product instead of a loop of shots (a block of Southwell's
+# method), which changes little in what is shot.
 TOGETHER = 0.5
 
 Report = Callable[[float, str], None]
@@ -79,8 +79,9 @@ def progressive(
     fetched with it (``batch`` at most), since they are about to shoot. Columns are kept while
     they fit ``cache_bytes``, so reshooting is cheap in small scenes; memory otherwise stays
     O(P + N). (Not as float32: its rounding, amplified by 1 / (1 - rho), breaks the energy
-    balance of a closed room at rho = 0.9999 by 3e-4.) ``state`` (ShootingState) resumes an earlier solve and is updated in place;
-    without it the solve starts from B = U = E.
+    balance of a closed room at rho = 0.9999 by 3e-4.) With the brightest shooter, every patch
+    within TOGETHER of its unshot power shoots too, in one product. ``state`` (ShootingState)
+    resumes an earlier solve and is updated in place; without it the solve starts from B = U = E.
 
     Stops when, in every channel, the light still unshot, with all its future bounces in a
     closed scene, sum A |U| / (1 - rho_mean), is at most ``tolerance`` of all the light,
@@ -130,7 +131,8 @@ def progressive(
         missing = [int(q) for q in group if q not in cache]
         if missing:
             brightest = np.argsort(-power, kind="stable")[: batch + len(cache) + len(missing)]
-            wanted = missing + [int(q) for q in brightest if q not in cache and q not in missing][: max(0, batch - len(missing))]
+            ahead = [int(q) for q in brightest if q not in cache and q not in missing]
+            wanted = missing + ahead[: max(0, batch - len(missing))]
             effort, detail = _effort(left, tolerance), f"{state.shots} shots, form factors of {len(wanted)} more"
             fetched, captures = columns(np.array(wanted), lambda _done: report(effort, detail))
             for q, factors, capture in zip(wanted, fetched.T, np.clip(captures, 0.0, 1.0)):

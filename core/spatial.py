@@ -87,7 +87,8 @@ def _every_pair(low_a, high_a, chosen_a, low_b, high_b, chosen_b):
     rows = max(1, PAIRS_PER_BLOCK // max(1, len(chosen_b)))
     for begin in range(0, len(chosen_a), rows):
         block = chosen_a[begin:begin + rows]
-        touch = ((low_a[block, None] <= high_b[None, chosen_b]) & (low_b[None, chosen_b] <= high_a[block, None])).all(axis=2)
+        touch = ((low_a[block, None] <= high_b[None, chosen_b])
+                 & (low_b[None, chosen_b] <= high_a[block, None])).all(axis=2)
         row, column = np.nonzero(touch)
         firsts.append(block[row])
         seconds.append(chosen_b[column])
