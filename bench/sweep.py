@@ -116,7 +116,7 @@ FULL = {
                      note="The REFERENCE preset (patches of extent / 16) is the `patch extent / 16` bake with a "
                      "tolerance of 1e-4 instead of 1e-3 (which the tolerance rows show does not matter here), so it "
                      "is not baked again. Explicit "
-                     "solvers stop at patch size extent / 12 (2,144 patches before refinement)."),
+                     "solvers stop at patch size extent / 12 (2,318 patches before refinement)."),
     "sponza": Sweep(
         divisions=(), values={"rays_per_form_factor": (1,), "max_shots": (50, 200)},
         combos=(("raycast", "progressive"),), presets=(), base=(("max_shots", 100), ("rays_per_form_factor", 4)),
