@@ -187,6 +187,7 @@ def bake(
         colors = mesh.node_emission[:, :channels] + mesh.node_reflectance[:, :channels] * node_lighting
         change = None if previous_colors is None else estimate.level_change(mesh, colors, previous_colors)
         previous_colors = colors
+    near_stats = None
     if settings.near_field:
         clock = time.perf_counter()
         stages.stage("near field", NEAR_FIELD_FROM, 1.0)
@@ -194,7 +195,8 @@ def bake(
         point_lighting = engine.gather(near.points, near.normals, radiosity, lambda f: stages.report(f / 2))
         direct_light = direct.at_points(near.points, near.normals, lambda f: stages.report(0.5 + f / 2))
         point_lighting += direct_light[:, :channels]
-        node_lighting = nearfield.corrected_lighting(near, mesh, radiosity, node_lighting, point_lighting)
+        node_lighting, iterations = nearfield.corrected_lighting(near, mesh, radiosity, node_lighting, point_lighting)
+        near_stats = {"pairs": near.pair_count, "interpolation_nodes": len(near.points), "iterations": iterations}
         colors = mesh.node_emission[:, :channels] + mesh.node_reflectance[:, :channels] * node_lighting
         seconds["near_field"], _ = _lap(clock)
     if change is None:
@@ -216,6 +218,7 @@ def bake(
         "nodes": mesh.node_count,
         "channels": channels,
         "refinements": refinements,
+        "near_field": near_stats,
         "seconds": seconds | {"total": sum(seconds.values())},
         "rays_cast": engine.rays_cast,
         "peak_memory_estimate": _base_bytes(mesh) + level.extra_bytes + engine.working_bytes(),

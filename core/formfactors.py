@@ -50,6 +50,7 @@ class FormFactorEngine:
         self.mesh = mesh
         self.method = method
         self.resolution = hemicube_resolution
+        self._ray_settings = (rays_per_form_factor, seed, probing)
         if method == "hemicube":
             hemicube.pixels(hemicube_resolution)  # validates the resolution
         else:
@@ -76,8 +77,9 @@ class FormFactorEngine:
         if self.raycaster is not None:
             return self.raycaster
         mesh = self.mesh
+        rays, seed, probing = self._ray_settings
         return raycast.RayCaster(mesh.patch_corners, mesh.patch_normals, mesh.patch_areas, self.visibility,
-                                 raycast.DEFAULT_RAYS, 0, patch_owners=mesh.patch_triangle)
+                                 rays, seed, patch_owners=mesh.patch_triangle, probing=probing)
 
     @cached_property
     def _shot_receivers(self) -> tuple[np.ndarray, np.ndarray]:

@@ -7,10 +7,11 @@ entirely at the edge itself; the patch's mean is not its value there (the top of
 the light is darker than the wall's patch). That error falls only linearly with the patch size
 and held 96 % of the squared error of the sample Cornell box (docs/cycles.md).
 
-For each patch q near a node n (centroid within NEAR_REACH of its longest edge) the near field
-reads the patch's linear interpolant of its corner colours V_i where the node looks, at the
-kernel-weighted centroid of the patch seen from the node (barycentric weights lambda_i, from
-exact point-to-triangle form factors of a QUADRATURE_DIVISIONS**2 split of the patch):
+For each patch q near a node n (centroid within NEAR_REACH of its longest edge, box within
+NEAR_REACH of the median longest edge) the near field reads the patch's linear interpolant of its
+corner colours V_i where the node looks, at the kernel-weighted centroid of the patch seen from
+the node (barycentric weights lambda_i, from exact point-to-triangle form factors of a
+QUADRATURE_DIVISIONS**2 split of the patch, graded where one piece dominates):
 
     G_n' = G_n + sum_{q near n} F(n, q) (sum_i lambda_i(n, q) V_i - B_q),   V = E + rho G'
 
@@ -104,7 +105,7 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
     # patches whose corners are all output nodes are read as linear)
     needed = np.unique(patches)
     missing = corner_output[needed] < 0
-    if len(np.unique(corner_key[needed][missing])) * lit.sum() > GATHER_BUDGET:
+    if len(np.unique(corner_key[needed][missing])) * radiosity.any(axis=1).sum() > GATHER_BUDGET:
         whole = (corner_output[patches] >= 0).all(axis=1)
         receivers, patches, factors = receivers[whole], patches[whole], factors[whole]
         needed = np.unique(patches)
@@ -140,20 +141,21 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
 
 
 def corrected_lighting(near: NearField, mesh: Discretization, radiosity: np.ndarray, node_lighting: np.ndarray,
-                       point_lighting: np.ndarray) -> np.ndarray:
+                       point_lighting: np.ndarray) -> tuple[np.ndarray, int]:
     """(N, C) the output nodes' lighting G' with the near field read from the patches' linear
-    interpolants; ``radiosity`` (P, C) of the patches, ``node_lighting`` (N, C) and
-    ``point_lighting`` (M, C) the gathered lighting G of the output and interpolation nodes."""
+    interpolants, and the iterations the fixed point took (MAX_ITERATIONS if it stopped short);
+    ``radiosity`` (P, C) of the patches, ``node_lighting`` (N, C) and ``point_lighting`` (M, C)
+    the gathered lighting G of the output and interpolation nodes."""
     channels = radiosity.shape[1]
     emission = np.concatenate([mesh.node_emission, near.emission])[:, :channels]
     reflectance = np.concatenate([mesh.node_reflectance, near.reflectance])[:, :channels]
     gathered = np.concatenate([node_lighting, point_lighting])
     if near.pair_count == 0:
-        return node_lighting
+        return node_lighting, 0
     constant = near.form_factor[:, None] * radiosity[near.patch]
     weights = near.form_factor[:, None] * near.weights
     lighting = gathered
-    for _ in range(MAX_ITERATIONS):
+    for iteration in range(1, MAX_ITERATIONS + 1):
         colours = emission + reflectance * lighting
         seen = np.einsum("kc,kcx->kx", weights, colours[near.corner_receiver]) - constant
         correction = np.stack([np.bincount(near.receiver, seen[:, c], len(gathered)) for c in range(channels)], axis=1)
@@ -162,7 +164,7 @@ def corrected_lighting(near: NearField, mesh: Discretization, radiosity: np.ndar
         lighting = updated
         if change <= ITERATION_TOLERANCE * max(np.abs(lighting).max(), np.finfo(float).tiny):
             break
-    return lighting[: len(node_lighting)]
+    return lighting[: len(node_lighting)], iteration
 
 
 def _patch_corner_nodes(scene: Scene, mesh: Discretization) -> tuple[np.ndarray, np.ndarray]:

@@ -21,7 +21,6 @@ from .geometry import barycentric_grid
 from .visibility import RAY_EPSILON, Visibility
 
 _GOLDEN = (np.sqrt(5) - 1) / 2
-DEFAULT_RAYS = 16  # per form factor, where no setting chooses
 
 
 def check_ray_count(count: int) -> int:
@@ -70,8 +69,9 @@ class RayCaster:
     def __init__(self, patch_corners, patch_normals, patch_areas, visibility: Visibility, rays: int, seed: int,
                  patch_owners: np.ndarray | None = None, probing: bool = False):
         """``patch_owners`` (P,): the surface (``visibility.owners``) each patch lies on, or None
-        for sources that are not among the occluders (area lights). With ``probing``, a quarter
-        of the rays (``probe_samples``) are cast first and the rest only where those disagree:
+        for sources that are not among the occluders (area lights). With ``probing``, the probe
+        samples (``probe_samples``: 4 of 16, 16 of 64) are cast first and the rest only where
+        those disagree:
         about half the time of a bake, but a shadow edge that crosses a source between the
         probes is missed (a blocker's form factor 1 % off in tests/core/test_occlusion.py)."""
         self.corners = patch_corners
@@ -105,7 +105,8 @@ class RayCaster:
         matrix products, and only the others are computed pair by pair."""
         corners = self.corners[sources]
         ahead = points @ self.normals[sources].T > np.einsum("kx,kx->k", corners[:, 0], self.normals[sources])
-        above = np.einsum("mx,kcx->mkc", normals, corners).max(axis=2) > np.einsum("mx,mx->m", points, normals)[:, None]
+        heights = (normals @ corners.reshape(-1, 3).T).reshape(len(points), len(sources), 3)
+        above = heights.max(axis=2) > np.einsum("mx,mx->m", points, normals)[:, None]
         receivers, chosen = np.nonzero(ahead & above)
         result = np.zeros((len(points), len(sources)))
         result[receivers, chosen] = self.form_factors(points, normals, receivers, sources[chosen])
@@ -126,7 +127,7 @@ class RayCaster:
         # the probe samples first: where they agree (the source wholly seen or wholly hidden, as
         # for most pairs) their verdict stands for every sample
         probe, rest = self._probe, self._rest
-        offset = self._unit_samples[sources][:, probe] - origin[:, None, :]  # (k, s, 3): rays, t in [0, 1]
+        offset = self._unit_samples[sources[:, None], probe] - origin[:, None, :]  # (k, s, 3): rays, t in [0, 1]
         probed = self._blocked(origin, offset, self._cos_source(offset, sources), sources)
         hidden = probed.all(axis=1)
         mixed = np.flatnonzero(probed.any(axis=1) & ~hidden)

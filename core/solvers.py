@@ -133,19 +133,27 @@ def progressive(
             brightest = np.argsort(-power, kind="stable")[: batch + len(cache) + len(missing)]
             ahead = [int(q) for q in brightest if q not in cache and q not in missing]
             wanted = missing + ahead[: max(0, batch - len(missing))]
+            # make room first: forget the oldest columns outside the group
+            members = set(group.tolist())
+            excess = len(cache) + len(wanted) - max(cache_limit, len(group))
+            for q in [q for q in cache if q not in members][: max(0, excess)]:
+                del cache[q]
             effort, detail = _effort(left, tolerance), f"{state.shots} shots, form factors of {len(wanted)} more"
-            fetched, captures = columns(np.array(wanted), lambda _done: report(effort, detail))
-            for q, factors, capture in zip(wanted, fetched.T, np.clip(captures, 0.0, 1.0)):
-                cache[q] = (factors, float(capture))
+            for start in range(0, len(wanted), batch):  # (P + N, batch) at a time
+                part = wanted[start:start + batch]
+                fetched, captures = columns(np.array(part), lambda _done: report(effort, detail))
+                for q, factors, capture in zip(part, fetched.T, np.clip(captures, 0.0, 1.0)):
+                    cache[q] = (factors, float(capture))
         shooting = unshot[group].copy()  # (k, C)
-        factors = np.stack([cache[int(q)][0] for q in group], axis=1)  # (P + N, k)
         captures = np.array([cache[int(q)][1] for q in group])
-        while len(cache) > max(cache_limit, len(group)):  # forget the oldest columns first, never the prefetched
-            del cache[next(iter(cache))]
         shot_power = areas[group] * np.abs(shooting).sum(axis=1)
         state.power_shot += float(shot_power.sum())
         state.power_captured += float(shot_power @ captures)
-        received = all_reflectance * (factors @ shooting)
+        received = np.zeros_like(radiosity)
+        for start in range(0, len(group), batch):  # (P + N, batch) columns at a time, not the group's
+            part = group[start:start + batch]
+            received += np.stack([cache[int(q)][0] for q in part], axis=1) @ shooting[start:start + batch]
+        received *= all_reflectance
         radiosity += received
         unshot[group] = 0.0
         unshot += received[:patch_count]

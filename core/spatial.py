@@ -1,4 +1,4 @@
-"""Which boxes (or balls) of one set overlap those of another: a uniform grid, not all pairs."""
+"""Which boxes of one set overlap those of another: a uniform grid, not all pairs."""
 
 from __future__ import annotations
 
@@ -35,16 +35,6 @@ def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray,
     parts.append((first, second))
     keys = np.unique(np.concatenate([a * len(low_b) + b for a, b in parts]))
     return keys // len(low_b), keys % len(low_b)
-
-
-def overlapping(centres_a: np.ndarray, radii_a: np.ndarray, centres_b: np.ndarray,
-                radii_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Index pairs (i, j), each once, sorted, with |centres_a[i] - centres_b[j]| < radii_a[i]
-    + radii_b[j]; centres (n, 3), radii (n,) >= 0."""
-    first, second = overlapping_boxes(centres_a - radii_a[:, None], centres_a + radii_a[:, None],
-                                      centres_b - radii_b[:, None], centres_b + radii_b[:, None])
-    close = np.linalg.norm(centres_a[first] - centres_b[second], axis=1) < radii_a[first] + radii_b[second]
-    return first[close], second[close]
 
 
 def _boxes_touch(low_a, high_a, first, low_b, high_b, second) -> np.ndarray:
