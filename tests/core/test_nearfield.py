@@ -1,6 +1,7 @@
 """The near field (core/nearfield.py): where a node looks on a patch next to it, against a fine
-uniform quadrature of exact form factors; and, through whole bakes, corners enclosed under a
-block on a floor stay black (no light reaches them)."""
+uniform quadrature of exact form factors; through whole bakes, a wall's colour at its contact
+with a lit floor against the constant-patch answer extrapolated to zero patch size, and corners
+enclosed under a block on a floor stay black (no light reaches them)."""
 
 import numpy as np
 import pytest
@@ -65,3 +66,32 @@ def test_corners_enclosed_under_a_block_stay_black(solver):
     floor_mean = colours[~under].mean()
     assert under.sum() == 6 and floor_mean > 0.1
     assert np.abs(colours[under]).max() <= 1e-3 * floor_mean, colours[under].max() / floor_mean
+
+
+def test_a_wall_on_a_lit_floor_reads_the_floor_at_the_contact():
+    """The colour of a wall's vertex in the middle of its contact line with a floor lit from above:
+    against the constant-patch bakes at 0.1 and 0.05 m extrapolated to zero patch size
+    (Richardson, their error being linear in the patch size there: 2 B(h/2) - B(h), an answer
+    the near field takes no part in), the near field at 0.25 m patches is at least 3 times closer
+    than the constant reading (measured 0.10 % against 1.5 %), and at 0.1 m within 0.1 %
+    (measured 0.03 %, while the extrapolation's two bakes differ by 0.3 %)."""
+    floor = quad([-0.2, -0.5, 0], [1, 0, 0], [0, 1, 0])  # z = 0, faces +z
+    wall = merge(quad([0, -0.5, 0], [0, 0.5, 0], [0, 0, 1]), quad([0, 0, 0], [0, 0.5, 0], [0, 0, 1]))  # x = 0, faces +x
+    light = quad([0.3, -0.2, 1.2], [0, 0.4, 0], [0.4, 0, 0])  # faces -z
+    vertices, triangles = merge(floor, wall, light)
+    count = len(triangles)
+    reflectance = np.full((count, 3), 0.8)
+    reflectance[-2:] = 0.0
+    emission = np.zeros((count, 3))
+    emission[-2:] = 10.0
+    scene = Scene(vertices, triangles, reflectance, emission)
+    wall_corners = vertices[triangles[2:6]]
+    middle = (np.abs(wall_corners[..., 1]) < 1e-12) & (np.abs(wall_corners[..., 2]) < 1e-12)
+
+    def contact_colour(patch_size, near_field):
+        result = bake(scene, patch_size=patch_size, near_field=near_field, tolerance=1e-5)
+        return result.corner_colors[2:6][middle][:, 0].mean()
+
+    truth = 2 * contact_colour(0.05, False) - contact_colour(0.1, False)
+    assert abs(contact_colour(0.25, True) - truth) * 3 < abs(contact_colour(0.25, False) - truth)
+    assert abs(contact_colour(0.1, True) - truth) < 1e-3 * truth
