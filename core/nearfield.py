@@ -34,6 +34,7 @@ from . import parallel, spatial
 from .analytic import point_to_triangle
 from .discretize import NODE_INSET, Discretization
 from .geometry import barycentric_grid, longest_edges
+from .refine import radiosity_scale
 from .scene import Scene
 
 NEAR_REACH = 1.25  # a patch is near a node whose point lies within this many longest edges of its centroid
@@ -95,10 +96,7 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
     point-to-patch form factors pairwise."""
     node_count = mesh.node_count
     corner_key, corner_output = _patch_corner_nodes(scene, mesh)
-    brightest = radiosity.max(axis=1)
-    quiet = ~mesh.patch_emission.any(axis=1)
-    scale = mesh.patch_areas[quiet] @ brightest[quiet] / max(mesh.patch_areas[quiet].sum(), np.finfo(float).tiny)
-    lit = brightest > DARK * scale
+    lit = radiosity.max(axis=1) > DARK * radiosity_scale(mesh, radiosity)
     receivers, patches, factors = _near_pairs(mesh.node_points, mesh.node_normals, mesh, lit, form_factors)
     # interpolation nodes at the corners of those patches that have no output node, unless
     # gathering at them all would cost more than GATHER_BUDGET point-patch pairs (then only

@@ -28,12 +28,17 @@ def to_split(mesh: Discretization, radiosity: np.ndarray, node_colors: np.ndarra
     """Indices of the front patches whose ``radiosity_jumps`` or ``corner_gaps`` exceed
     ``threshold`` times the area mean of the (largest channel of the) radiosity of the patches
     that emit nothing (of all patches if all emit)."""
+    jumps = np.maximum(radiosity_jumps(mesh, radiosity, crease_angle), corner_gaps(mesh, node_colors, radiosity))
+    return np.flatnonzero(jumps > threshold * radiosity_scale(mesh, radiosity))
+
+
+def radiosity_scale(mesh: Discretization, radiosity: np.ndarray) -> float:
+    """The area mean of the largest channel of the radiosity (P, C) of the patches that emit
+    nothing (of all patches if all emit): what "fast" and "dark" are measured against."""
     quiet = ~mesh.patch_emission.any(axis=1)
     if not quiet.any():
         quiet = np.ones_like(quiet)
-    scale = mesh.patch_areas[quiet] @ radiosity[quiet].max(axis=1) / mesh.patch_areas[quiet].sum()
-    jumps = np.maximum(radiosity_jumps(mesh, radiosity, crease_angle), corner_gaps(mesh, node_colors, radiosity))
-    return np.flatnonzero(jumps > threshold * scale)
+    return float(mesh.patch_areas[quiet] @ radiosity[quiet].max(axis=1) / mesh.patch_areas[quiet].sum())
 
 
 def radiosity_jumps(mesh: Discretization, radiosity: np.ndarray, crease_angle: float) -> np.ndarray:

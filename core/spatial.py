@@ -38,7 +38,8 @@ def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray,
 
 
 def _boxes_touch(low_a, high_a, first, low_b, high_b, second) -> np.ndarray:
-    return ((low_a[first] <= high_b[second]) & (low_b[second] <= high_a[first])).all(axis=1)
+    """Whether boxes ``first`` of a touch boxes ``second`` of b (index arrays that broadcast)."""
+    return ((low_a[first] <= high_b[second]) & (low_b[second] <= high_a[first])).all(axis=-1)
 
 
 def _grid_pairs(boxes_a, chosen_a, boxes_b, chosen_b, corners):
@@ -77,9 +78,7 @@ def _every_pair(low_a, high_a, chosen_a, low_b, high_b, chosen_b):
     rows = max(1, PAIRS_PER_BLOCK // max(1, len(chosen_b)))
     for begin in range(0, len(chosen_a), rows):
         block = chosen_a[begin:begin + rows]
-        touch = ((low_a[block, None] <= high_b[None, chosen_b])
-                 & (low_b[None, chosen_b] <= high_a[block, None])).all(axis=2)
-        row, column = np.nonzero(touch)
+        row, column = np.nonzero(_boxes_touch(low_a, high_a, block[:, None], low_b, high_b, chosen_b[None]))
         firsts.append(block[row])
         seconds.append(chosen_b[column])
     return np.concatenate(firsts), np.concatenate(seconds)
