@@ -195,9 +195,14 @@ def bake(
         point_lighting = engine.gather(near.points, near.normals, radiosity, lambda f: stages.report(f / 2))
         direct_light = direct.at_points(near.points, near.normals, lambda f: stages.report(0.5 + f / 2))
         point_lighting += direct_light[:, :channels]
-        node_lighting, iterations = nearfield.corrected_lighting(near, mesh, radiosity, node_lighting, point_lighting)
+        lighting, iterations = nearfield.corrected_lighting(near, mesh, radiosity, node_lighting, point_lighting)
+        node_lighting = lighting[: mesh.node_count]
         near_stats = {"pairs": near.pair_count, "interpolation_nodes": len(near.points), "iterations": iterations}
         colors = mesh.node_emission[:, :channels] + mesh.node_reflectance[:, :channels] * node_lighting
+        # ray casting's discretisation estimate, tighter than the change in the last level; the
+        # hemicube's aliasing at the nodes is not in it (docs/methods.md)
+        if near.pair_count and method == "raycast":
+            change = estimate.near_field_error(mesh, colors, nearfield.reading_error(near, mesh, radiosity, lighting))
         seconds["near_field"], _ = _lap(clock)
     if change is None:
         change = estimate.corner_patch_gap(mesh, colors, radiosity, engine.receiving_points)

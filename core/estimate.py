@@ -58,6 +58,12 @@ def level_change(mesh: Discretization, colors: np.ndarray, previous: np.ndarray)
     return LEVEL_FACTOR * relative_rms(colors - previous, colors, ~mesh.node_emission.any(axis=1))
 
 
+def near_field_error(mesh: Discretization, colors: np.ndarray, node_errors: np.ndarray) -> float:
+    """Relative RMS of the near field's bound on each node's error (N, C)
+    (``nearfield.reading_error``)."""
+    return relative_rms(node_errors, colors, ~mesh.node_emission.any(axis=1))
+
+
 def corner_patch_gap(mesh: Discretization, colors: np.ndarray, radiosity: np.ndarray,
                      receiving_points: np.ndarray) -> float:
     """Relative RMS of node colour (N, C) minus the radiosity (P, C) of the nearest patch of

@@ -77,8 +77,9 @@ def test_the_estimate_bounds_the_error_in_a_furnace(method, solver):
 @pytest.fixture(scope="module")
 def room_reference():
     """The cube room converged: patches of extent / 12 (1,300), tolerance 1e-5. Against one at
-    extent / 24 (4,800 patches) it differs by 3.5 % (measured), less than the margins between the
-    errors measured against it (6 % to 14 %) and the estimates they must stay below (18 % to 63 %)."""
+    extent / 24 (4,800 patches) it differs by 0.45 % (measured), less than the margins between the
+    errors measured against it (0.9 % to 11 %) and the estimates they must stay below (4.8 % to
+    96 %)."""
     scene = cube_room()
     return scene, bake(scene, patch_size=scene.extent / 12, tolerance=1e-5).corner_colors
 
@@ -90,16 +91,20 @@ def room_reference():
 ])
 def test_the_estimate_bounds_the_discretisation_error_in_a_room(room_reference, levels, knobs):
     """Patches of a quarter of the extent are coarse for this room: the walls darken towards
-    the ceiling within a patch (measured errors against the reference 14 %, 6 %, 10 %; estimates
-    45 %, 18 %, 63 %). The estimate must bound the error; after a refinement it is the tighter
-    one, at most half the one-level estimate of the same bake (measured 0.18 against 0.45)."""
+    the ceiling within a patch (measured errors against the reference 1.65 %, 0.93 %, 10.8 %;
+    estimates 8.1 %, 4.8 %, 96 %: ray casting's from the near field, the hemicube's from the gap
+    to the nearest patch, which also covers its aliasing at the nodes). The estimate must bound
+    the error; after a refinement it shrinks with it (measured 0.046 against 0.079 on one level,
+    as the error went from 1.65 % to 0.93 %)."""
     scene, reference = room_reference
     result = bake(scene, refinement_levels=levels, **knobs)
     error = relative_rms(scene, result.corner_colors, reference)
     estimate = result.stats["error_estimate"]
     assert estimate["total"] >= error, (estimate, error)
+    if not knobs:  # and it is not vacuous (measured 4.9 and 5.2 times the error)
+        assert estimate["total"] <= 8 * error, (estimate, error)
     if levels:
-        assert estimate["discretisation"] <= 0.5 * bake(scene, **knobs).stats["error_estimate"]["discretisation"]
+        assert estimate["discretisation"] <= 0.75 * bake(scene, **knobs).stats["error_estimate"]["discretisation"]
 
 
 def test_the_unshot_estimate_bounds_an_unfinished_solve():
