@@ -29,13 +29,13 @@ def point_to_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.nda
     # plane or the triangle in the point's (a patch must not see itself or its coplanar
     # neighbours), scaled by the triangle's size and by the coordinates' magnitude.
     size = np.sqrt(np.maximum(ex * ex + ey * ey + ez * ez, fx * fx + fy * fy + fz * fz))
-    zero = 1e-9 * size + 1e-13 * np.abs(triangles).max(axis=(1, 2))
+    zero = 1e-9 * size + 1e-13 * _largest(np.abs(triangles).reshape(-1, 9))
     in_front = -(nx * x[:, 0] + ny * y[:, 0] + nz * z[:, 0])  # the point's height over the triangle, times 2A
     facing = in_front > zero * double_area
     height = (relative @ normals[:, :, None])[..., 0]  # (n, 3) above the receiver's plane
     result = np.zeros(len(points))
-    above = facing & (height.max(axis=1) > zero)
-    whole = above & (height.min(axis=1) >= 0)
+    above = facing & (_largest(height) > zero)
+    whole = above & (np.minimum(np.minimum(height[:, 0], height[:, 1]), height[:, 2]) >= 0)
     index = np.flatnonzero(whole)
     result[index] = _contour(relative[index], normals[index])
     index = np.flatnonzero(above & ~whole)
@@ -44,19 +44,28 @@ def point_to_triangle(points: np.ndarray, normals: np.ndarray, triangles: np.nda
     return result
 
 
+def _largest(values: np.ndarray) -> np.ndarray:
+    """(n,) the largest of each row of (n, k): column by column, several times faster than
+    ``max(axis=1)`` over a short axis."""
+    result = values[:, 0].copy()
+    for column in range(1, values.shape[1]):
+        np.maximum(result, values[:, column], out=result)
+    return result
+
+
 def _contour(polygon: np.ndarray, normals: np.ndarray) -> np.ndarray:
-    """Lambert's sum over closed polygons (n, k, 3) given relative to the point."""
-    length = np.sqrt(np.einsum("nkx,nkx->nk", polygon, polygon))
-    unit = polygon / np.maximum(length, np.finfo(float).tiny)[..., None]
-    ux, uy, uz = unit[..., 0], unit[..., 1], unit[..., 2]
-    following = np.r_[1 : polygon.shape[1], 0]
-    vx, vy, vz = ux[:, following], uy[:, following], uz[:, following]
+    """Lambert's sum over closed polygons (n, k, 3) given relative to the point (computed on
+    (k, n) rows, each coordinate contiguous)."""
+    x, y, z = np.ascontiguousarray(polygon.transpose(2, 1, 0))  # (k, n) each
+    length = np.maximum(np.sqrt(x * x + y * y + z * z), np.finfo(float).tiny)
+    ux, uy, uz = x / length, y / length, z / length
+    vx, vy, vz = (np.roll(u, -1, axis=0) for u in (ux, uy, uz))  # the next corner's
     cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
     sine = np.sqrt(cx * cx + cy * cy + cz * cz)
     gamma = np.arctan2(sine, ux * vx + uy * vy + uz * vz)
-    projected = cx * normals[:, 0:1] + cy * normals[:, 1:2] + cz * normals[:, 2:3]
+    projected = cx * normals[:, 0] + cy * normals[:, 1] + cz * normals[:, 2]
     terms = np.divide(gamma * projected, sine, out=np.zeros_like(sine), where=sine > 0)
-    return np.abs(terms.sum(axis=1)) / (2 * np.pi)
+    return np.abs(terms.sum(axis=0)) / (2 * np.pi)
 
 
 def _clip_above(corners: np.ndarray, height: np.ndarray) -> np.ndarray:

@@ -85,6 +85,7 @@ class RayCaster:
         # disc term A / (pi S) of the weight, in the unit space of the visibility module
         self._unit_disc = (patch_areas * visibility.scale**2 / (np.pi * rays)).astype(np.float32)
         self._probe, self._rest = probe_samples(rays) if probing else (np.arange(rays), np.zeros(0, dtype=np.int64))
+        self._unit_probes = np.ascontiguousarray(self._unit_samples[:, self._probe])  # (P, probes, 3)
         # sources with another face in their plane over them (``contacts.coplanar_overlaps``)
         # need the first-hit rule below; for the others a ray stopped short of their plane tells
         # the same, faster
@@ -96,7 +97,7 @@ class RayCaster:
 
     @property
     def sample_bytes(self) -> int:
-        return self._unit_samples.nbytes
+        return self._unit_samples.nbytes + self._unit_probes.nbytes
 
     def grid_form_factors(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray) -> np.ndarray:
         """(m, k) form factors from every point (m, 3) facing normals (m, 3) to every patch of
@@ -105,8 +106,9 @@ class RayCaster:
         matrix products, and only the others are computed pair by pair."""
         corners = self.corners[sources]
         ahead = points @ self.normals[sources].T > np.einsum("kx,kx->k", corners[:, 0], self.normals[sources])
-        heights = (normals @ corners.reshape(-1, 3).T).reshape(len(points), len(sources), 3)
-        above = heights.max(axis=2) > np.einsum("mx,mx->m", points, normals)[:, None]
+        heights = normals @ corners.reshape(-1, 3).T  # (m, 3k): corner c of source j at 3 j + c
+        highest = np.maximum(np.maximum(heights[:, 0::3], heights[:, 1::3]), heights[:, 2::3])
+        above = highest > np.einsum("mx,mx->m", points, normals)[:, None]
         receivers, chosen = np.nonzero(ahead & above)
         result = np.zeros((len(points), len(sources)))
         result[receivers, chosen] = self.form_factors(points, normals, receivers, sources[chosen])
@@ -126,8 +128,7 @@ class RayCaster:
         origin = self.visibility.to_unit(points[receivers]) + RAY_EPSILON * normal  # (k, 3)
         # the probe samples first: where they agree (the source wholly seen or wholly hidden, as
         # for most pairs) their verdict stands for every sample
-        probe, rest = self._probe, self._rest
-        offset = self._unit_samples[sources[:, None], probe] - origin[:, None, :]  # (k, s, 3): rays, t in [0, 1]
+        offset = self._unit_probes[sources] - origin[:, None, :]  # (k, s, 3): rays, t in [0, 1]
         probed = self._blocked(origin, offset, self._cos_source(offset, sources), sources)
         hidden = probed.all(axis=1)
         mixed = np.flatnonzero(probed.any(axis=1) & ~hidden)
