@@ -41,8 +41,8 @@ class BakeSettings:
     column_cache : bytes of form-factor columns progressive refinement may keep for reshooting.
     seed : fixes the ray-casting sample positions.
     refinement_levels : times the patches where radiosity jumps are split in four after a solve
-        (each patch at most once per level); with one or more, the change in the last level is
-        the discretisation error estimate, otherwise a looser one (``estimate``).
+        (each patch at most once per level); with one or more, and the hemicube or no near
+        field, the change in the last level is the discretisation error estimate (``estimate``).
     refinement_threshold : a patch is split when its radiosity differs from a neighbour's on
         the same surface by more than this fraction of the mean radiosity of the patches that
         do not emit.
@@ -116,8 +116,10 @@ def bake(
     The scene is solved on patches of ``patch_size``, then ``refinement_levels`` times the
     patches where radiosity jumps by more than ``refinement_threshold`` are split in four and
     the solve goes on from where it was (``refine``). ``stats["error_estimate"]`` comes from
-    ``estimate``: the light left unshot, plus twice the change of the vertex colours in the last
-    level (or, with no refinement, their gap to the nearest patches).
+    ``estimate``: the light left unshot, plus the discretisation's part: with ray casting and the
+    near field, how far the near patches are from linear (``nearfield.reading_error``); otherwise
+    twice the change of the vertex colours in the last level, or with no refinement their gap to
+    the nearest patches.
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")

@@ -4,14 +4,18 @@ distributed, plus the error of representing radiosity as constant over each patc
 Errors are relative RMS over the receiver nodes that emit nothing, all channels:
 sqrt(mean |c - c*|^2) / mean |c*| (the NRMSE the benchmarks measure, docs/tradeoffs.md).
 
-Discretisation, by one of two measures:
+Discretisation, by the first of three measures that applies:
+- with ray casting and the near field, how far the patches next to each node are from linear,
+  rho_n sum_{q near n} F(n, q) |mean corner colour - B_q| (``nearfield.reading_error``): 2 to 5
+  times the measured error on the Cornell boxes and the cube room (docs/methods.md);
 - after adaptive refinement, LEVEL_FACTOR times the change of the node colours in the last
   level: if each level shrinks the error by a factor r, what is left after it is the sum of the
   changes still to come, r / (1 - r) times the last one, at most 2 for r <= 2/3 (measured on
   the reflective cube room of tests/core/test_error_estimate.py: r = 0.55 to 0.6);
 - on one level, the gap between each corner's colour (evaluated at the corner) and the radiosity
   of its triangle's patch nearest that corner (evaluated at the patch's receiving point): the
-  change of radiosity across a patch's reach, which a constant patch cannot represent.
+  change of radiosity across a patch's reach, which a constant patch cannot represent. Loose,
+  but it covers the hemicube's aliasing at the nodes, which the first does not.
 """
 
 from __future__ import annotations

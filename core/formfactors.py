@@ -160,6 +160,8 @@ class FormFactorEngine:
             columns = np.divide(rows.T * mesh.patch_areas[sources], mesh.patch_areas[:, None],
                                 out=np.zeros((mesh.patch_count, len(sources))), where=mesh.patch_areas[:, None] > 0)
             return columns, rows.sum(axis=1)
+        capture = parallel.submit(hemicube.visible_patches, self.receiving_points[sources], mesh.patch_normals[sources],
+                                  CAPTURE_RESOLUTION, self.visibility, mesh)
         points, normals = self._shot_receivers
         pieces = max(parallel.THREADS, -(-len(points) * len(sources) // self._pairs_per_block()))
         chunks = np.array_split(np.arange(len(points)), min(pieces, len(points)))
@@ -171,9 +173,7 @@ class FormFactorEngine:
         for part in parallel.map_ordered(one, chunks):
             parts.append(part)
             report(len(parts) / len(chunks))
-        seen, factors = hemicube.visible_patches(
-            self.receiving_points[sources], mesh.patch_normals[sources], CAPTURE_RESOLUTION, self.visibility, mesh
-        )
+        seen, factors = capture.result()
         return np.concatenate(parts), (factors * (seen >= 0)).sum(axis=1)
 
     def _rows_per_block(self, source_count: int) -> int:

@@ -4,7 +4,7 @@ arrays, so whole blocks (form factors, then their rays) run side by side on ever
 from __future__ import annotations
 
 import os
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Callable, Iterable, Iterator, TypeVar
 
 Item = TypeVar("Item")
@@ -28,3 +28,8 @@ def map_ordered(function: Callable[[Item], Result], items: Iterable[Item]) -> It
     finally:  # the consumer stopped early (a cancel, an error): drop the work not yet started
         for future in pending:
             future.cancel()
+
+
+def submit(function: Callable[..., Result], *args) -> Future:
+    """Start ``function(*args)`` on the pool, beside the blocks of ``map_ordered``."""
+    return _pool.submit(function, *args)

@@ -152,7 +152,7 @@ def progressive(
         received = np.zeros_like(radiosity)
         for start in range(0, len(group), batch):  # (P + N, batch) columns at a time, not the group's
             part = group[start:start + batch]
-            received += np.stack([cache[int(q)][0] for q in part], axis=1) @ shooting[start:start + batch]
+            received += np.stack([cache[int(q)][0] for q in part]).T @ shooting[start:start + batch]
         received *= all_reflectance
         radiosity += received
         unshot[group] = 0.0

@@ -9,6 +9,8 @@ import numpy as np
 LARGE_CELLS = 4096
 # Candidate pairs made at once (about 50 bytes each): bounds the memory of a dense cell.
 PAIRS_PER_BLOCK = 1 << 22
+# Up to this many pairs in all, every pair is tested: faster than building the grid.
+EVERY_PAIR = 1 << 20
 
 
 def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray,
@@ -18,6 +20,8 @@ def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray,
     empty = np.zeros(0, dtype=np.int64)
     if len(low_a) == 0 or len(low_b) == 0:
         return empty, empty
+    if len(low_a) * len(low_b) <= EVERY_PAIR:
+        return _every_pair(low_a, high_a, np.arange(len(low_a)), low_b, high_b, np.arange(len(low_b)))
     sizes = np.concatenate([high_a - low_a, high_b - low_b]).max(axis=1)
     origin = np.minimum(low_a.min(axis=0), low_b.min(axis=0))
     spread = float((np.maximum(high_a.max(axis=0), high_b.max(axis=0)) - origin).max())

@@ -1,0 +1,36 @@
+"""spatial.overlapping_boxes against every pair tested directly."""
+
+import numpy as np
+import pytest
+
+from core import spatial
+
+
+def random_boxes(rng: np.random.Generator, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Boxes in the unit cube: most small, a few spanning much of it (listed in many cells, or
+    tested against everything), some flat (zero extent along an axis, as a floor's triangles)."""
+    low = rng.random((count, 3))
+    size = rng.random((count, 3)) * np.where(rng.random((count, 1)) < 0.05, 0.8, 0.05)
+    size[rng.random(count) < 0.2, rng.integers(0, 3)] = 0.0
+    return low, low + size
+
+
+@pytest.mark.parametrize("grid", [True, False])
+def test_overlapping_boxes_finds_exactly_the_touching_pairs(monkeypatch, grid):
+    """The grid (forced by lowering EVERY_PAIR) and the direct test give the same pairs as the
+    brute-force comparison of every pair, each once, sorted."""
+    if grid:
+        monkeypatch.setattr(spatial, "EVERY_PAIR", 0)
+        monkeypatch.setattr(spatial, "LARGE_CELLS", 64)  # some boxes take the every-pair path too
+    rng = np.random.default_rng(7)
+    low_a, high_a = random_boxes(rng, 400)
+    low_b, high_b = random_boxes(rng, 300)
+    # and boxes that only touch: the first 50 of b start along x exactly where those of a end
+    low_b[:50], high_b[:50] = low_a[:50].copy(), high_a[:50].copy()
+    low_b[:50, 0], high_b[:50, 0] = high_a[:50, 0], high_a[:50, 0] + 0.01
+    first, second = spatial.overlapping_boxes(low_a, high_a, low_b, high_b)
+    touching = ((low_a[:, None] <= high_b[None]) & (low_b[None] <= high_a[:, None])).all(axis=2)
+    expected_first, expected_second = np.nonzero(touching)
+    assert len(expected_first) > 300  # the case is not trivial (595 pairs)
+    np.testing.assert_array_equal(first, expected_first)
+    np.testing.assert_array_equal(second, expected_second)
