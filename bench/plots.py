@@ -28,16 +28,17 @@ PRESET_LETTERS = {"DRAFT": "D", "PREVIEW": "Pv", "PRODUCTION": "Pr", "REFERENCE"
 MIB = float(1 << 20)
 
 
-def write_all(results: dict[str, list[Record]], output: Path) -> list[Path]:
-    """One figure per scene, and the estimate figure if any bake estimated its error (a stale
-    one is removed otherwise); returns the paths written."""
+def write_all(results: dict[str, list[Record]], output: Path, estimated: list[str]) -> list[Path]:
+    """One figure per scene, and the estimate figure of the scenes ``estimated`` if any of their
+    bakes estimated its error (a stale one is removed otherwise); returns the paths written."""
     paths = []
     for name, records in results.items():
         paths.append(output / f"tradeoffs_{name}.png")
         scene_figure(name, records, paths[-1])
     estimates = output / "tradeoffs_estimates.png"
-    if any(r.ok and r.estimate is not None for records in results.values() for r in records):
-        estimate_figure(results, estimates)
+    chosen = {name: results[name] for name in estimated}
+    if any(r.ok and r.estimate is not None for records in chosen.values() for r in records):
+        estimate_figure(chosen, estimates)
         paths.append(estimates)
     else:
         estimates.unlink(missing_ok=True)

@@ -429,7 +429,7 @@ def write(run: Run, output: Path) -> None:
     """docs/tradeoffs.md (or its development twin) and its figures, into ``output``; the notes on
     each scene's sweep come from this code (QUICK or FULL)."""
     output.mkdir(parents=True, exist_ok=True)
-    figures = plots.write_all(run.results, output)
+    figures = plots.write_all(run.results, output, estimated=tradeoff_doc.estimated_scenes(run))
     notes = {name: sweep.note for name, sweep in (QUICK if run.quick else FULL).items()}
     (output / "tradeoffs.md").write_text(tradeoff_doc.markdown(run, notes, figures))
     print_fronts(run.results)

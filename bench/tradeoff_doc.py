@@ -60,8 +60,14 @@ def _number(value: float | None, digits: int = 3) -> str:
     return "" if value is None else f"{value:.{digits}g}"
 
 
-def scene_table(records: list[Record]) -> str:
-    """One row per bake, in the order of the plan."""
+def estimated_scenes(run: Run) -> list[str]:
+    """The scenes whose compared quantity is what the core's error estimate is about: the corner
+    colours (not the CIE room's lighting, under black walls whose colours are all 0)."""
+    return [name for name in run.results if run.quantities[name] == "corner_colors"]
+
+
+def scene_table(records: list[Record], estimated: bool = True) -> str:
+    """One row per bake, in the order of the plan (the estimate left blank unless ``estimated``)."""
     base = baseline(records)
     rows = []
     front = {id(r) for r in pareto_front(records)}
@@ -73,7 +79,7 @@ def scene_table(records: list[Record]) -> str:
             r.case.combo, varied(r), f"{r.stats['patches']:,}", r.work, f"{r.wall:.3g}",
             "" if base is None else f"{r.wall / base.wall:.2f}", f"{r.cpu / r.wall:.2f}" if r.wall > 0 else "",
             f"{r.peak / MIB:.0f}", f"{r.error:.3g}", f"{100 * r.worst_share:.0f} %", _number(r.mean_error),
-            _number(r.estimate), "yes" if id(r) in front else "",
+            _number(r.estimate) if estimated else "", "yes" if id(r) in front else "",
         ])
     return report.markdown_table(
         ["method / solver", "varied", "patches", "work", "wall s", "x default", "CPU s / wall s", "peak MiB",
@@ -178,10 +184,14 @@ def markdown(run: Run, notes: dict[str, str], figures: list[Path]) -> str:
         lines += [notes[name], ""] if notes.get(name) else []
         if figure in names:
             lines += [f"![{name}: error against time]({figure})", ""]
-        lines += ["Pareto front, fastest first:", "", *front_lines(records), "", scene_table(records), ""]
+        lines += ["Pareto front, fastest first:", "", *front_lines(records), "",
+                  scene_table(records, name in estimated_scenes(run)), ""]
     lines += ["## The bakes' own error estimates", ""]
     if "tradeoffs_estimates.png" in names:
+        left_out = [name for name in results if name not in estimated_scenes(run)]
         lines += ["![estimated against measured error](tradeoffs_estimates.png)", ""]
+        lines += [f"Left out: {', '.join(left_out)}, compared on the corners' lighting; the estimate is of the corner "
+                  "colours (all 0 under its black walls).", ""] if left_out else []
     else:
         lines += ["No bake reported `stats[\"error_estimate\"]`: this core does not estimate its error yet.", ""]
     return "\n".join(lines)

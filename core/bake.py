@@ -119,7 +119,7 @@ def bake(
     ``estimate``: the light left unshot, plus the discretisation's part: with ray casting and the
     near field, how far the near patches are from linear (``nearfield.reading_error``); otherwise
     twice the change of the vertex colours in the last level, or with no refinement their gap to
-    the nearest patches.
+    the nearest patches (with the hemicube at least that gap, which covers its aliasing).
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -208,6 +208,8 @@ def bake(
         seconds["near_field"], _ = _lap(clock)
     if change is None:
         change = estimate.corner_patch_gap(mesh, colors, radiosity, engine.receiving_points)
+    elif method == "hemicube":  # the gap is what covers the hemicube's aliasing (docs/methods.md)
+        change = max(change, estimate.corner_patch_gap(mesh, colors, radiosity, engine.receiving_points))
     clock = time.perf_counter()
     corner_colors, triangle_radiosity, corner_lighting = _per_corner(scene, mesh, radiosity, node_lighting)
     seconds["reconstruct"], _ = _lap(clock)

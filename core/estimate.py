@@ -15,7 +15,8 @@ Discretisation, by the first of three measures that applies:
 - on one level, the gap between each corner's colour (evaluated at the corner) and the radiosity
   of its triangle's patch nearest that corner (evaluated at the patch's receiving point): the
   change of radiosity across a patch's reach, which a constant patch cannot represent. Loose,
-  but it covers the hemicube's aliasing at the nodes, which the first does not.
+  but it covers the hemicube's aliasing at the nodes, which the first two do not: hemicube bakes
+  take at least this one.
 """
 
 from __future__ import annotations

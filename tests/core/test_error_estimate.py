@@ -88,14 +88,15 @@ def room_reference():
     (0, {}),
     (1, {}),
     (0, {"method": "hemicube", "solver": "jacobi"}),
+    (1, {"method": "hemicube", "solver": "jacobi"}),
 ])
 def test_the_estimate_bounds_the_discretisation_error_in_a_room(room_reference, levels, knobs):
     """Patches of a quarter of the extent are coarse for this room: the walls darken towards
-    the ceiling within a patch (measured errors against the reference 1.65 %, 0.93 %, 10.8 %;
-    estimates 8.1 %, 4.8 %, 96 %: ray casting's from the near field, the hemicube's from the gap
-    to the nearest patch, which also covers its aliasing at the nodes). The estimate must bound
-    the error; after a refinement it shrinks with it (measured 0.046 against 0.079 on one level,
-    as the error went from 1.65 % to 0.93 %)."""
+    the ceiling within a patch (measured errors against the reference 1.65 %, 0.93 %, 10.8 %,
+    12.0 %; estimates 8.1 %, 4.8 %, 96 %, 75 %: ray casting's from the near field, the
+    hemicube's at least the gap to the nearest patch, which also covers its aliasing at the
+    nodes). The estimate must bound the error; after a refinement it shrinks with it (ray
+    casting: 0.046 against 0.079 on one level, as the error went from 1.65 % to 0.93 %)."""
     scene, reference = room_reference
     result = bake(scene, refinement_levels=levels, **knobs)
     error = relative_rms(scene, result.corner_colors, reference)
@@ -103,7 +104,7 @@ def test_the_estimate_bounds_the_discretisation_error_in_a_room(room_reference, 
     assert estimate["total"] >= error, (estimate, error)
     if not knobs:  # and it is not vacuous (measured 4.9 and 5.2 times the error)
         assert estimate["total"] <= 8 * error, (estimate, error)
-    if levels:
+    if levels and not knobs:
         assert estimate["discretisation"] <= 0.75 * bake(scene, **knobs).stats["error_estimate"]["discretisation"]
 
 
