@@ -69,7 +69,7 @@ class RadiositySettings(bpy.types.PropertyGroup):
     refinement_levels: bpy.props.IntProperty(
         name="Refinement Levels", default=0, min=0, max=4,
         description="Split patches where light changes fast this many times, re-solving after each; "
-        "with one or more, the error estimate is the change in the last level (tighter)",
+        "the error estimate follows the refined patches",
     )
     ambient: bpy.props.BoolProperty(
         name="Ambient Term", default=True,
