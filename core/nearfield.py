@@ -175,7 +175,7 @@ def reading_error(near: NearField, mesh: Discretization, radiosity: np.ndarray, 
     its size is the gap between the mean of the corner colours (the linear interpolant's value at
     the centroid) and the patch's own radiosity there, which agree wherever radiosity is linear
     across the patch. ``lighting`` (N + M, C) is ``corrected_lighting``'s. Measured against
-    converged references (Cornell boxes, patch sizes extent / 4 to / 16): 2 to 4 times the error
+    converged references (Cornell boxes, patch sizes extent / 4 to / 16): 2 to 5 times the error
     of the whole bake (docs/methods.md)."""
     channels = radiosity.shape[1]
     emission = np.concatenate([mesh.node_emission, near.emission])[:, :channels]

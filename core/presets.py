@@ -32,9 +32,9 @@ PRESETS: dict[str, Preset] = {
     "PREVIEW": Preset("Preview", "The defaults: patches a quarter of the scene, 16 rays, 0.1 % unshot. "
                       "Cornell box: 0.6 s, 2.1 % from converged", 4, 16, 1e-3),
     "PRODUCTION": Preset("Production", "Patches an eighth of the scene, 16 rays, 0.1 % unshot. "
-                         "Cornell box: 1.5 s, 0.6 % from converged", 8, 16, 1e-3),
+                         "Cornell box: 1.3 s, 0.6 % from converged", 8, 16, 1e-3),
     "REFERENCE": Preset("Reference", "Patches a sixteenth of the scene, 16 rays, 0.01 % unshot: to check other "
-                        "bakes against. Cornell box: 11 s, 0.3 % from converged", 16, 16, 1e-4),
+                        "bakes against. Cornell box: 10 s, 0.3 % from converged", 16, 16, 1e-4),
 }
 
 
