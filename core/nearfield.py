@@ -146,8 +146,7 @@ def corrected_lighting(near: NearField, mesh: Discretization, radiosity: np.ndar
     ``node_lighting`` (N, C) and ``point_lighting`` (M, C) the gathered lighting G of the output
     and interpolation nodes."""
     channels = radiosity.shape[1]
-    emission = np.concatenate([mesh.node_emission, near.emission])[:, :channels]
-    reflectance = np.concatenate([mesh.node_reflectance, near.reflectance])[:, :channels]
+    emission, reflectance = _receiver_surfaces(near, mesh, channels)
     gathered = np.concatenate([node_lighting, point_lighting])
     if near.pair_count == 0:
         return gathered, 0
@@ -178,13 +177,18 @@ def reading_error(near: NearField, mesh: Discretization, radiosity: np.ndarray, 
     converged references (Cornell boxes, patch sizes extent / 4 to / 16): 2 to 5 times the error
     of the whole bake (docs/methods.md)."""
     channels = radiosity.shape[1]
-    emission = np.concatenate([mesh.node_emission, near.emission])[:, :channels]
-    reflectance = np.concatenate([mesh.node_reflectance, near.reflectance])[:, :channels]
+    emission, reflectance = _receiver_surfaces(near, mesh, channels)
     colours = emission + reflectance * lighting
     gap = np.abs(colours[near.corner_receiver].mean(axis=1) - radiosity[near.patch])
     errors = np.stack([np.bincount(near.receiver, near.form_factor * gap[:, c], len(colours)) for c in range(channels)],
                       axis=1)
     return reflectance[: mesh.node_count] * errors[: mesh.node_count]
+
+
+def _receiver_surfaces(near: NearField, mesh: Discretization, channels: int) -> tuple[np.ndarray, np.ndarray]:
+    """Emission and reflectance (N + M, C) of the output nodes, then the interpolation nodes."""
+    return (np.concatenate([mesh.node_emission, near.emission])[:, :channels],
+            np.concatenate([mesh.node_reflectance, near.reflectance])[:, :channels])
 
 
 def _patch_corner_nodes(scene: Scene, mesh: Discretization) -> tuple[np.ndarray, np.ndarray]:
