@@ -254,11 +254,14 @@ def test_the_same_scene_at_another_scale_bakes_to_the_same_colours(method, solve
     all relative, and rays are traced in a unit space (the scene divided by its extent). What is
     left is float64 rounding of the scaled input: 1e-6 relative leaves ample room (measured
     5e-14 at 1e-4 and 1e4). The solve is tight (1e-10) so that its stopping point, which
-    rounding may move (patches that tie for the most unshot power), is not what is compared."""
+    rounding may move (patches that tie for the most unshot power), is not what is compared.
+    The error estimate, relative, is scale-free too."""
     reference = lit_room_reference(method, solver)
     other = bake(scaled(lit_room(), factor), method, solver, tolerance=1e-10)
     assert other.stats["patches"] == reference.stats["patches"]
     np.testing.assert_allclose(other.corner_colors, reference.corner_colors, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(other.stats["error_estimate"]["discretisation"],
+                               reference.stats["error_estimate"]["discretisation"], rtol=1e-6)
 
 
 def lit_room_with_lights(factor: float) -> Scene:
