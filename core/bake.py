@@ -42,7 +42,8 @@ class BakeSettings:
     seed : fixes the ray-casting sample positions.
     refinement_levels : times the patches where radiosity jumps are split in four after a solve
         (each patch at most once per level); with one or more, and the hemicube or no near
-        field, the change in the last level is the discretisation error estimate (``estimate``).
+        field, the change in the last level is the discretisation error estimate (the
+        hemicube's at least the gap estimate too; ``estimate``).
     refinement_threshold : a patch is split when its radiosity differs from a neighbour's on
         the same surface by more than this fraction of the mean radiosity of the patches that
         do not emit.
