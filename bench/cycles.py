@@ -439,14 +439,6 @@ FINDINGS: list[str] = [
 # --------------------------------------------------------------------------------------------------
 
 
-def _load(moment: str) -> dict[str, str]:
-    """The load average and the cores free, at ``moment`` ("start" or "end")."""
-    return {
-        f"load average (1, 5, 15 min) at the {moment}": machine.load_average(),
-        f"cores free at the {moment} (CPU-bound probe, see bench/machine.py)": f"{machine.free_cores():.1f}",
-    }
-
-
 def ladder(top: int) -> tuple[int, ...]:
     """Cycles' sample counts: FIRST_SAMPLES x 4^k below ``top``, then ``top``."""
     counts = [FIRST_SAMPLES]
@@ -498,12 +490,12 @@ def measure(samples: int, quick: bool, docs: Path) -> dict:
     counts = ladder(samples)
     variant_samples = min(QUICK_VARIANT_SAMPLES if quick else VARIANT_SAMPLES, samples)
     start = time.perf_counter()
-    header = machine.machine() | {"core/*.py SHA-1": machine.core_digest()} | _load("start")
+    header = machine.machine() | {"core/*.py SHA-1": machine.core_digest()} | machine.load("start")
     print(", ".join(f"{k}: {v}" for k, v in header.items()), flush=True)
     labelled = cases(counts, quick, QUICK_PICTURE_SAMPLES if quick else PICTURE_SAMPLES, variant_samples,
                      variants(variant_samples), docs)
     results = run(labelled, start)
-    header |= _load("end") | {"core/*.py SHA-1 at the end": machine.core_digest(), "bpy": results["check"]["bpy"]}
+    header |= machine.load("end") | {"core/*.py SHA-1 at the end": machine.core_digest(), "bpy": results["check"]["bpy"]}
     if header["core/*.py SHA-1 at the end"] != header["core/*.py SHA-1"]:
         print("warning: core/ changed during the run: its bakes may mix two cores", file=sys.stderr)
     return {"samples": samples, "quick": quick, "counts": counts, "variant_samples": variant_samples,

@@ -185,17 +185,7 @@ class Headline:
         "extrapolated", along the first segment above, and below along noise's law (time x samples,
         error x 1 / sqrt(samples): time x 1 / error^2), which assumes Cycles keeps converging to the
         yardstick (generous to Cycles against our reference if that is biased)."""
-        if error <= 0:
-            return math.inf, "no error left to match"
-        errors = [p.errors[against] for p in self.cycles]
-        seconds = [p.seconds for p in self.cycles]
-        if error > errors[0]:
-            return _log_line(errors[0], seconds[0], errors[1], seconds[1], error), "extrapolated"
-        for k in range(len(errors) - 1):
-            if errors[k] >= error >= errors[k + 1]:
-                return _log_line(errors[k], seconds[k], errors[k + 1], seconds[k + 1], error), ""
-        best = int(np.argmin(errors))
-        return seconds[best] * (errors[best] / error) ** 2, "extrapolated"
+        return seconds_at(error, [p.errors[against] for p in self.cycles], [p.seconds for p in self.cycles])
 
     def speedup(self, point: Point, against: str) -> tuple[float, str]:
         """(Cycles' seconds at ``point``'s error) / ``point``'s seconds, and how they were found."""
@@ -211,6 +201,21 @@ class Headline:
 
     def default(self) -> Point:
         return next(p for p in self.ours if p.label == DEFAULT_PRESET)
+
+
+def seconds_at(error: float, errors: list[float], seconds: list[float]) -> tuple[float, str]:
+    """Seconds at NRMSE ``error`` on Cycles' curve (``errors`` falling, ``seconds`` rising with
+    its samples), interpolated in log-log, and how ("" inside, "extrapolated" beyond: along the
+    first segment above, below along noise's law, time x 1 / error^2)."""
+    if error <= 0:
+        return math.inf, "no error left to match"
+    if error > errors[0]:
+        return _log_line(errors[0], seconds[0], errors[1], seconds[1], error), "extrapolated"
+    for k in range(len(errors) - 1):
+        if errors[k] >= error >= errors[k + 1]:
+            return _log_line(errors[k], seconds[k], errors[k + 1], seconds[k + 1], error), ""
+    best = int(np.argmin(errors))
+    return seconds[best] * (errors[best] / error) ** 2, "extrapolated"
 
 
 def _log_line(x0: float, y0: float, x1: float, y1: float, x: float) -> float:

@@ -4,7 +4,8 @@ from the driver. bpy can be imported once per process, so every case loads Blend
 the checkout as a real extension (tools/source_extension.py), opens the file, measures and writes
 JSON. Times are taken around the bake calls only (Blender's start-up and the file load excluded).
 
-Cases (dicts, JSON on the command line), by ``kind``:
+Cases (dicts, JSON on the command line), by ``kind``; ``blend`` names another file with the same
+objects (bench/fine_mesh.py: the box with finer grids):
 
 - ``ours``: ``bpy.ops.radiosity.bake()``; ``settings`` sets ``scene.radiosity`` properties first
   (e.g. ``{"preset": "CUSTOM", "patch_size": 0.03, "rays": "256"}``), ``node_inset`` moves
@@ -51,7 +52,7 @@ def worker(case: dict, result_path: str) -> None:
 
     bpy, package = blender_with_extension()
 
-    bpy.ops.wm.open_mainfile(filepath=str(BLEND), load_ui=False)
+    bpy.ops.wm.open_mainfile(filepath=case.get("blend", str(BLEND)), load_ui=False)
     kind = case["kind"]
     result = {"ours": _case_ours, "cycles": _case_cycles, "check": _case_check, "render": _case_render}[kind](
         bpy, package, case
@@ -106,8 +107,8 @@ def _case_ours(bpy, package, case: dict) -> dict:
 def _counts(stats: dict) -> dict:
     """What the report quotes of a bake's stats: sizes, work, the knobs the core used, how far
     the solver got, and the core's own error estimate where it gives one (None where it does not)."""
-    counts = {key: stats.get(key) for key in ("triangles", "patches", "nodes", "shots", "iterations", "rays_cast",
-                                              "unshot_fraction", "error_bound", "error_estimate",
+    counts = {key: stats.get(key) for key in ("triangles", "panels", "patches", "nodes", "shots", "iterations",
+                                              "rays_cast", "unshot_fraction", "error_bound", "error_estimate",
                                               "refinements")}
     return counts | {key: stats["settings"][key] for key in ("patch_size", "rays_per_form_factor", "tolerance")}
 

@@ -49,6 +49,14 @@ def load_average() -> str:
     return " ".join(f"{load:.2f}" for load in os.getloadavg())
 
 
+def load(moment: str) -> dict[str, str]:
+    """The load average and the cores free, at ``moment`` ("start" or "end"), for a report's header."""
+    return {
+        f"load average (1, 5, 15 min) at the {moment}": load_average(),
+        f"cores free at the {moment} (CPU-bound probe, see bench/machine.py)": f"{free_cores():.1f}",
+    }
+
+
 def free_cores() -> float:
     """Cores this run can get now: nproc x (seconds of one fixed CPU-bound job alone) / (seconds of
     nproc such jobs in nproc processes at once). About nproc on an idle machine, less when other

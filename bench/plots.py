@@ -23,6 +23,7 @@ PANEL_TITLES = {
     "tolerance": "tolerance",
     "refinement_levels": "refinement levels",
     "max_shots": "shots (progressive refinement stopped after)",
+    "merge_flat": "flat regions merged (1) or not (0)",
 }
 PRESET_LETTERS = {"DRAFT": "D", "PREVIEW": "Pv", "PRODUCTION": "Pr", "REFERENCE": "R"}
 MIB = float(1 << 20)

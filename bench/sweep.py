@@ -77,6 +77,7 @@ class Sweep:
         "rays_per_form_factor": (1, 4, 16, 64),
         "tolerance": (1e-1, 1e-2, 1e-3, 1e-4),
         "refinement_levels": (1, 2, 3),
+        "merge_flat": (False,),
     })
     combos: tuple[tuple[str, str], ...] = COMBOS
     tolerance_only: tuple[str, ...] = ("gauss_seidel",)

@@ -10,6 +10,8 @@ import report
 import scenes
 from records import Record, Run, pareto_front
 
+from core.bake import AUTO_PATCH_DIVISIONS
+
 COMMAND = ".venv/bin/python bench/sweep.py"
 BASELINE = ("raycast", "progressive")  # times are also given as ratios to this method's default bake
 BUDGETS = (1.0, 10.0)  # seconds: the best error within each
@@ -156,9 +158,9 @@ def markdown(run: Run, notes: dict[str, str], figures: list[Path]) -> str:
         "",
         "## How it is measured",
         "",
-        "- One knob at a time moves away from bake()'s defaults (patch size = scene extent / 4, hemicube "
-        "resolution 64, 16 rays per form factor, tolerance 1e-3), for each method with each solver; the presets "
-        "of `core.presets` are baked with each method and solver too (the hemicube ignores their rays: the scenes "
+        "- One knob at a time moves away from bake()'s defaults (patch size = scene extent / "
+        f"{AUTO_PATCH_DIVISIONS}, flat regions merged, hemicube resolution 64, 16 rays per form factor, tolerance "
+        "1e-3), for each method with each solver; the presets of `core.presets` are baked with each method and solver too (the hemicube ignores their rays: the scenes "
         "have no lights or sky). The hemicube resolution is swept for the hemicube only, the rays for ray casting "
         "only. Explicit solvers (Jacobi, Gauss-Seidel: a P x P matrix) are left out where P is too large.",
         "- Each bake runs in a child process forked after the scenes are loaded, so it starts without the thread "

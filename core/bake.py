@@ -9,7 +9,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from . import estimate, nearfield, refine, solvers
+from . import estimate, nearfield, refine, simplify, solvers
 from .discretize import Discretization, discretize
 from .formfactors import METHODS, FormFactorEngine
 from .lights import DirectLighting
@@ -17,7 +17,7 @@ from .progress import Progress, ProgressCallback
 from .raycast import check_ray_count
 from .scene import Scene
 
-AUTO_PATCH_DIVISIONS = 4  # default patch size: the scene's extent over this (docs/benchmarks.md)
+AUTO_PATCH_DIVISIONS = 8  # default patch size: the scene's extent over this (the PREVIEW preset's)
 COARSE_TOLERANCE = 10  # a level that will be refined stops at this times the tolerance
 NEAR_FIELD_FROM = 0.97  # the progress fraction where the near-field correction starts
 
@@ -26,7 +26,7 @@ NEAR_FIELD_FROM = 0.97  # the progress fraction where the near-field correction 
 class BakeSettings:
     """The knobs of a bake, validated on construction.
 
-    patch_size : longest patch edge in scene units; None picks extent / 4.
+    patch_size : longest patch edge in scene units; None picks extent / 8.
     crease_angle : degrees; faces meeting at a sharper angle (and always beyond 90) do not
         share a vertex colour.
     hemicube_resolution : pixels across the hemicube's top face (even).
@@ -52,6 +52,11 @@ class BakeSettings:
     probe_rays : ray casting: cast a quarter of each form factor's rays first, the rest only
         where they disagree (``raycast.RayCaster``): about half the time, shadows a little
         less exact.
+    merge_flat : patch flat regions of triangles smaller than the patch size as panels up to
+        the patch size (``simplify``), not triangle by triangle: a finely tessellated wall costs
+        about what a coarse one does, and the patch size, not the mesh, sets the accuracy;
+        colours are still evaluated at every input vertex. Off: every input triangle is at
+        least one patch.
     """
 
     patch_size: float | None = None
@@ -69,6 +74,7 @@ class BakeSettings:
     refinement_threshold: float = 0.25
     near_field: bool = True
     probe_rays: bool = True
+    merge_flat: bool = True
 
     def __post_init__(self) -> None:
         if self.patch_size is not None and not (math.isfinite(self.patch_size) and self.patch_size > 0):
@@ -134,7 +140,8 @@ def bake(
     stages.stage("discretising", 0.0, 0.02)
     patch_size = settings.patch_size if settings.patch_size is not None else scene.extent / AUTO_PATCH_DIVISIONS
     crease = math.radians(settings.crease_angle)
-    mesh = discretize(scene, patch_size, crease, stages.report)
+    panels = simplify.panels(scene, patch_size) if settings.merge_flat else None
+    mesh = discretize(scene, patch_size, crease, stages.report, panels=panels)
     channels = 1 if scene.is_grey else 3
     seconds["discretise"], clock = _lap(clock)
 
@@ -212,7 +219,8 @@ def bake(
     elif method == "hemicube":  # the gap is what covers the hemicube's aliasing (docs/methods.md)
         change = max(change, estimate.corner_patch_gap(mesh, colors, radiosity, engine.receiving_points))
     clock = time.perf_counter()
-    corner_colors, triangle_radiosity, corner_lighting = _per_corner(scene, mesh, radiosity, node_lighting)
+    corner_colors, triangle_radiosity, corner_lighting = _per_corner(scene, mesh, radiosity, node_lighting,
+                                                                     patches_per_triangle=panels is None)
     seconds["reconstruct"], _ = _lap(clock)
     stages.report(1.0, "done", force=True)
 
@@ -223,6 +231,7 @@ def bake(
         "solver": solver,
         "settings": asdict(settings) | {"patch_size": patch_size},
         "triangles": len(scene.triangles),
+        "panels": len(mesh.panel_corners),
         "patches": mesh.patch_count,
         "lights": len(scene.lights),
         "nodes": mesh.node_count,
@@ -284,7 +293,7 @@ class _Level:
         mesh = engine.mesh
         clock = time.perf_counter()
         if self.solver == "progressive":
-            nodes_receive = engine.method == "raycast"
+            nodes_receive = engine.method == "raycast" and not __import__("os").environ.get("NODES_GATHER")
             if self.state is None:
                 self.state = solvers.ShootingState.start(
                     sources, self.node_direct if nodes_receive else np.zeros((0, self.channels)))
@@ -363,9 +372,11 @@ def _base_bytes(mesh: Discretization) -> int:
     return sum(value.nbytes for value in vars(mesh).values() if isinstance(value, np.ndarray)) + 64 * mesh.patch_count
 
 
-def _per_corner(scene: Scene, mesh: Discretization, radiosity: np.ndarray, node_lighting: np.ndarray):
+def _per_corner(scene: Scene, mesh: Discretization, radiosity: np.ndarray, node_lighting: np.ndarray,
+                patches_per_triangle: bool = True):
     """Corner colours B = E + rho G and lighting G from the nodes, triangle means from the front
-    patches; RGB float64."""
+    patches (from the corners when patches are cut from merged panels, not from each input
+    triangle); RGB float64."""
     count = len(scene.triangles)
     rgb = np.broadcast_to(radiosity, (len(radiosity), 3)) if radiosity.shape[1] == 1 else radiosity
     lighting = np.broadcast_to(node_lighting, (len(node_lighting), 3))
@@ -374,6 +385,8 @@ def _per_corner(scene: Scene, mesh: Discretization, radiosity: np.ndarray, node_
     has_node = (corner_node >= 0)[..., None]
     corner_colors = np.where(has_node, nodes[np.maximum(corner_node, 0)], scene.emission[:, None, :])
     corner_lighting = np.where(has_node, lighting[np.maximum(corner_node, 0)], 0.0)
+    if not patches_per_triangle:
+        return np.ascontiguousarray(corner_colors), corner_colors.mean(axis=1), np.ascontiguousarray(corner_lighting)
     front = slice(0, mesh.front_patch_count)
     owner = mesh.patch_triangle[front]
     weights = mesh.patch_areas[front]

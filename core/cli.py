@@ -30,6 +30,9 @@ def parser() -> argparse.ArgumentParser:
     command.add_argument("--rays", type=int, default=defaults.rays_per_form_factor, help="rays per form factor")
     command.add_argument("--resolution", type=int, default=defaults.hemicube_resolution, help="hemicube resolution")
     command.add_argument("--tolerance", type=float, default=defaults.tolerance, help="convergence tolerance")
+    command.add_argument("--keep-triangles", action="store_true",
+                         help="patch every input triangle on its own: flat regions of small triangles are not "
+                         "merged into panels up to the patch size")
     command.add_argument("--output", help="write the baked triangles with corner colours to this .ply")
     return main
 
@@ -48,14 +51,15 @@ def main(argv: list[str] | None = None) -> int:
         result = bake(
             scene, arguments.method, arguments.solver, patch_size=arguments.patch_size,
             rays_per_form_factor=arguments.rays, hemicube_resolution=arguments.resolution,
-            tolerance=arguments.tolerance,
+            tolerance=arguments.tolerance, merge_flat=not arguments.keep_triangles,
         )
     except (OSError, ValueError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
     stats = result.stats
     seconds = ", ".join(f"{name} {value:.2f} s" for name, value in stats["seconds"].items())
-    print(f"baked {arguments.scene}: {stats['triangles']:,} triangles, {stats['patches']:,} patches, "
+    merged = f" merged into {stats['panels']:,} panels" if stats["panels"] != stats["triangles"] else ""
+    print(f"baked {arguments.scene}: {stats['triangles']:,} triangles{merged}, {stats['patches']:,} patches, "
           f"{stats['nodes']:,} vertex nodes, {len(materials)} materials")
     print(f"  {stats['method']} form factors, {stats['solver']} solver: "
           + (f"{stats['shots']:,} shots, {100 * stats['unshot_fraction']:.3g}% of the light unshot"

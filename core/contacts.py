@@ -71,11 +71,22 @@ def coplanar_overlaps(corners: np.ndarray, owners: np.ndarray) -> np.ndarray:
     return result
 
 
-def _contact_lines(corners: np.ndarray, degenerate: np.ndarray) -> dict[int, list[tuple[np.ndarray, np.ndarray]]]:
-    """For each triangle met by another inside, the lines (start, end) that cut it."""
+def cut_triangles(corners: np.ndarray, degenerate: np.ndarray, subjects: np.ndarray) -> np.ndarray:
+    """(k,) bool: whether a contact line cuts each triangle of ``subjects`` (k,) (the triangles
+    ``pieces`` would cut), without cutting them."""
+    cut = np.zeros(len(corners), dtype=bool)
+    cut[list(_contact_lines(corners, degenerate, subjects))] = True
+    return cut[subjects]
+
+
+def _contact_lines(corners: np.ndarray, degenerate: np.ndarray,
+                   subjects: np.ndarray | None = None) -> dict[int, list[tuple[np.ndarray, np.ndarray]]]:
+    """For each triangle (of ``subjects``, default all) met by another inside, the lines
+    (start, end) that cut it."""
     valid = np.flatnonzero(~degenerate)
-    first, second = _touching_boxes(corners[valid])
-    target, other = valid[first], valid[second]
+    chosen = valid if subjects is None else np.intersect1d(subjects, valid)
+    first, second = _touching_boxes(corners[chosen], None if subjects is None else corners[valid])
+    target, other = chosen[first], valid[second]
     _, normals = areas_and_normals(corners)
     crossing = np.abs((normals[target] * normals[other]).sum(axis=1)) < 1 - PARALLEL
     target, other = target[crossing], other[crossing]
@@ -93,13 +104,16 @@ def _contact_lines(corners: np.ndarray, degenerate: np.ndarray) -> dict[int, lis
     return lines
 
 
-def _touching_boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Pairs of triangles (k, 3, 3) whose bounding boxes, grown by CONTACT_TOLERANCE of the
-    triangle's size, touch: the candidates for meeting (each pair both ways, and each with
-    itself)."""
-    pad = (CONTACT_TOLERANCE * longest_edges(corners))[:, None]
-    low, high = corners.min(axis=1) - pad, corners.max(axis=1) + pad
-    return spatial.overlapping_boxes(low, high, low, high)
+def _touching_boxes(corners: np.ndarray, others: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs (i, j) of triangles (k, 3, 3) and ``others`` (default: the same triangles) whose
+    bounding boxes, grown by CONTACT_TOLERANCE of the triangle's size, touch: the candidates for
+    meeting (within one set, each pair both ways, and each with itself)."""
+    def boxes(triangles):
+        pad = (CONTACT_TOLERANCE * longest_edges(triangles))[:, None]
+        return triangles.min(axis=1) - pad, triangles.max(axis=1) + pad
+    low, high = boxes(corners)
+    other_low, other_high = (low, high) if others is None else boxes(others)
+    return spatial.overlapping_boxes(low, high, other_low, other_high)
 
 
 def _plane_sections(triangles: np.ndarray, heights: np.ndarray):

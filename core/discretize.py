@@ -12,13 +12,16 @@ than the crease angle, so colour may jump at creases and material borders.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from . import contacts
 from .geometry import areas_and_normals, barycentric_grid, longest_edges, triangle_corners
 from .scene import Scene
+
+if TYPE_CHECKING:
+    from .simplify import Panels
 
 # A triangle whose area is below this fraction of its longest edge squared is treated as having
 # zero area (its normal is rounding noise). An aspect ratio of 1e4 is 1e-4, far above this.
@@ -39,7 +42,8 @@ class Discretization:
     patch_corners : (P, 3, 3) corner positions, front-facing by the right-hand rule.
     patch_areas, patch_normals, patch_centroids : (P,), (P, 3), (P, 3).
     patch_reflectance, patch_emission : (P, C) with C = 3 channels.
-    patch_triangle : (P,) int, the input triangle each patch comes from.
+    patch_triangle : (P,) int, the panel each patch comes from: the input triangle, or with
+        ``simplify.Panels`` the merged triangle of a flat region.
     patch_piece : (P,) int, the piece of its input triangle a patch lies in when other surfaces
         cut the triangle (``contacts``; pieces on either side of a contact line differ), else -1.
     front_patch_count : patches [0, F) are front sides, [F, P) the backs of two-sided triangles.
@@ -48,6 +52,9 @@ class Discretization:
     node_reflectance, node_emission : (N, C).
     corner_node : (T, 3) int, node of each corner of each input triangle, -1 where a zero-area
         triangle has no neighbour to take colour from.
+    panel_corners : (Q, 3, 3) the corners of the panels patches come from.
+    panel_node : (Q, 3) int, the node at each panel corner (``corner_node`` when the panels are
+        the input triangles; a panel's corners are input vertices).
     """
 
     patch_corners: np.ndarray
@@ -65,6 +72,8 @@ class Discretization:
     node_reflectance: np.ndarray
     node_emission: np.ndarray
     corner_node: np.ndarray
+    panel_corners: np.ndarray
+    panel_node: np.ndarray
 
     @property
     def patch_count(self) -> int:
@@ -76,11 +85,27 @@ class Discretization:
 
 
 def discretize(scene: Scene, patch_size: float | None = None, crease_angle: float = np.radians(30),
-               report: Callable[[float], None] = lambda _fraction: None, cut_contacts: bool = True) -> Discretization:
-    """Split ``scene`` into patches no longer than ``patch_size`` (None: one patch per triangle),
-    after cutting its triangles along contact lines (unless not ``cut_contacts``), and group
-    triangle corners into receiver nodes (``crease_angle`` in radians); ``report`` hears the
-    fraction done between steps."""
+               report: Callable[[float], None] = lambda _fraction: None, cut_contacts: bool = True,
+               panels: Panels | None = None) -> Discretization:
+    """Split ``scene`` (or its ``panels``, ``simplify``) into patches no longer than
+    ``patch_size`` (None: one patch per triangle), after cutting its triangles along contact
+    lines (unless not ``cut_contacts``), and group the corners of ``scene``'s triangles into
+    receiver nodes (``crease_angle`` in radians); ``report`` hears the fraction done between
+    steps."""
+    source = scene if panels is None else panels.scene
+    patches = _patches(source, patch_size, cut_contacts)
+    report(0.4)
+    nodes = _receiver_nodes(scene, crease_angle)
+    if panels is None:
+        panel_node = nodes["corner_node"]
+    else:
+        panel_node = nodes["corner_node"].ravel()[panels.panel_corner_source]
+    report(1.0)
+    return Discretization(**patches, **nodes, panel_corners=triangle_corners(source.vertices, source.triangles),
+                          panel_node=panel_node)
+
+
+def _patches(scene: Scene, patch_size: float | None, cut_contacts: bool) -> dict:
     corners = triangle_corners(scene.vertices, scene.triangles)
     areas, normals = areas_and_normals(corners)
     degenerate = areas <= DEGENERATE_AREA_RATIO * longest_edges(corners) ** 2
@@ -94,7 +119,6 @@ def discretize(scene: Scene, patch_size: float | None = None, crease_angle: floa
         areas_and_normals(pieces)[0] <= DEGENERATE_AREA_RATIO * longest_edges(pieces) ** 2)
     divisions = _divisions(pieces, piece_degenerate, patch_size)
     front = _split_triangles(pieces, divisions)
-    report(0.3)
     patch_triangle = piece_triangle[front["triangle"]]
     cut = np.bincount(piece_triangle, minlength=len(corners))[piece_triangle] > 1
     patch_piece = np.where(cut, np.arange(len(pieces)), -1)[front["triangle"]]
@@ -108,9 +132,7 @@ def discretize(scene: Scene, patch_size: float | None = None, crease_angle: floa
         patch_piece = np.concatenate([patch_piece, patch_piece[back]])
     patch_corners = np.concatenate(sides)
     patch_areas, patch_normals = areas_and_normals(patch_corners)
-    report(0.4)
-    nodes = _receiver_nodes(scene, corners, areas, normals, degenerate, crease_angle, report)
-    return Discretization(
+    return dict(
         patch_corners=patch_corners,
         patch_areas=patch_areas,
         patch_normals=patch_normals,
@@ -121,7 +143,6 @@ def discretize(scene: Scene, patch_size: float | None = None, crease_angle: floa
         patch_piece=patch_piece,
         front_patch_count=len(back_of_front),
         back_of_front=back_of_front,
-        **nodes,
     )
 
 
@@ -156,12 +177,13 @@ def _split_triangles(corners: np.ndarray, divisions: np.ndarray) -> dict[str, np
     return {"corners": np.concatenate(parts)[order], "triangle": np.concatenate(parents)[order]}
 
 
-def _receiver_nodes(scene, corners, areas, normals, degenerate, crease_angle, report) -> dict[str, np.ndarray]:
+def _receiver_nodes(scene: Scene, crease_angle: float) -> dict[str, np.ndarray]:
+    corners = triangle_corners(scene.vertices, scene.triangles)
+    areas, normals = areas_and_normals(corners)
+    degenerate = areas <= DEGENERATE_AREA_RATIO * longest_edges(corners) ** 2
     triangle_count = len(corners)
-    weld = _weld(scene, corners)  # (T, 3) welded vertex id per corner
-    report(0.6)
+    weld = weld_corners(corners, scene.extent)  # (T, 3) welded vertex id per corner
     labels = _smoothing_groups(weld, scene.material, normals, degenerate, crease_angle)
-    report(0.8)
     valid = ~degenerate
     valid_corners = np.flatnonzero(np.repeat(valid, 3))
     group_ids, corner_group = np.unique(labels.ravel()[valid_corners], return_inverse=True)
@@ -194,10 +216,11 @@ def _receiver_nodes(scene, corners, areas, normals, degenerate, crease_angle, re
     }
 
 
-def _weld(scene: Scene, corners: np.ndarray) -> np.ndarray:
-    """(T, 3) id per corner; corners at the same position (within tolerance) share an id."""
+def weld_corners(corners: np.ndarray, extent: float) -> np.ndarray:
+    """(T, 3) id per corner; corners at the same position (within WELD_TOLERANCE of the scene's
+    ``extent``) share an id."""
     points = corners.reshape(-1, 3)
-    step = max(scene.extent, np.finfo(float).tiny) * WELD_TOLERANCE
+    step = max(extent, np.finfo(float).tiny) * WELD_TOLERANCE
     keys = np.round((points - points.min(axis=0)) / step).astype(np.int64)
     return np.unique(keys, axis=0, return_inverse=True)[1].reshape(-1, 3)
 
@@ -233,10 +256,10 @@ def _smoothing_groups(weld, material, normals, degenerate, crease_angle) -> np.n
         pairs.append(np.stack([corner_first, match], axis=1))
     pairs = np.concatenate(pairs) if pairs else np.zeros((0, 2), dtype=np.int64)
     pairs = pairs[pairs[:, 1] >= 0]
-    return _connected_components(triangle_count * 3, pairs).reshape(-1, 3)
+    return connected_components(triangle_count * 3, pairs).reshape(-1, 3)
 
 
-def _connected_components(count: int, pairs: np.ndarray) -> np.ndarray:
+def connected_components(count: int, pairs: np.ndarray) -> np.ndarray:
     """Label (count,) per item: the smallest item index of its component (min-label propagation
     with pointer jumping)."""
     labels = np.arange(count)

@@ -72,10 +72,10 @@ def near_field_error(mesh: Discretization, colors: np.ndarray, node_errors: np.n
 def corner_patch_gap(mesh: Discretization, colors: np.ndarray, radiosity: np.ndarray,
                      receiving_points: np.ndarray) -> float:
     """Relative RMS of node colour (N, C) minus the radiosity (P, C) of the nearest patch of
-    the same input triangle, over the corners of the input triangles."""
+    the same panel, over the corners of the panels."""
     front = mesh.front_patch_count
     owner = mesh.patch_triangle[:front]
-    corner_node = mesh.corner_node[owner]  # (F, 3) the nodes of each patch's triangle
+    corner_node = mesh.panel_node[owner]  # (F, 3) the nodes of each patch's panel
     valid = corner_node >= 0
     nodes = np.maximum(corner_node, 0)
     distance = np.linalg.norm(receiving_points[:front, None, :] - mesh.node_points[nodes], axis=2)

@@ -195,7 +195,7 @@ def _patch_corner_nodes(scene: Scene, mesh: Discretization) -> tuple[np.ndarray,
     """(P, 3) key of the surface point at each patch corner (equal for the corners of patches of
     one flat surface, side and material that meet there, unless a contact line may run between
     them: radiosity jumps across one), and (P, 3) the output node there, or
-    -1: a front patch's corner at a vertex of its own input triangle has that vertex's node."""
+    -1: a front patch's corner at a vertex of its own panel has that vertex's node."""
     corners = mesh.patch_corners.reshape(-1, 3)
     step = max(scene.extent, np.finfo(float).tiny) * CORNER_WELD
     position = np.round((corners - corners.min(axis=0)) / step)
@@ -206,12 +206,12 @@ def _patch_corner_nodes(scene: Scene, mesh: Discretization) -> tuple[np.ndarray,
     output = np.full((mesh.patch_count, 3), -1)
     front = mesh.front_patch_count
     triangle = mesh.patch_triangle[:front]
-    vertices = scene.vertices[scene.triangles[triangle]]  # (F, 3, 3)
+    vertices = mesh.panel_corners[triangle]  # (F, 3, 3)
     tolerance = 1e-6 * longest_edges(mesh.patch_corners[:front])
     distance = np.linalg.norm(mesh.patch_corners[:front, :, None, :] - vertices[:, None, :, :], axis=3)
     at_vertex = distance <= tolerance[:, None, None]  # (F, patch corner, triangle corner)
     found = at_vertex.any(axis=2)
-    node = mesh.corner_node[triangle][np.arange(front)[:, None], at_vertex.argmax(axis=2)]
+    node = mesh.panel_node[triangle][np.arange(front)[:, None], at_vertex.argmax(axis=2)]
     output[:front] = np.where(found & (node >= 0), node, -1)
     return corner_key.reshape(-1, 3), output
 

@@ -20,21 +20,20 @@ class Preset(NamedTuple):
 
 
 # Chosen from the Pareto fronts of docs/tradeoffs.md (bench/sweep.py; Cornell box of 736 triangles,
-# NRMSE of the corner colours against a converged bake): the patch size is what buys accuracy;
-# beyond 16 rays (the probe rays make 16 cost about what 4 do) and a tolerance of 1e-3 the error
-# hardly moves. Refinement levels cost more than finer uniform patches for the same error there
-# (extent / 4 and one level: 2.7 s, 0.56 %), so no preset uses them. On this box the input
-# triangles are smaller than extent / 2 and / 4 patches, so Draft and Preview bake alike there;
-# Draft is for scenes of large triangles. The descriptions quote the measured time and error.
+# NRMSE of the corner colours against a converged bake): the patch size is what buys accuracy (flat
+# regions of small triangles are merged into panels up to it: ``simplify``); beyond 16 rays (the
+# probe rays make 16 cost about what 4 do) and a tolerance of 1e-3 the error hardly moves.
+# Refinement levels cost more than finer uniform patches for the same error there, so no preset
+# uses them. The descriptions quote the measured time and error.
 PRESETS: dict[str, Preset] = {
-    "DRAFT": Preset("Draft", "Large patches, 16 rays, 1 % of the light unshot. "
-                    "Cornell box: 0.6 s, 2.1 % from converged", 2, 16, 1e-2),
-    "PREVIEW": Preset("Preview", "The defaults: patches a quarter of the scene, 16 rays, 0.1 % unshot. "
-                      "Cornell box: 0.6 s, 2.1 % from converged", 4, 16, 1e-3),
-    "PRODUCTION": Preset("Production", "Patches an eighth of the scene, 16 rays, 0.1 % unshot. "
-                         "Cornell box: 1.3 s, 0.6 % from converged", 8, 16, 1e-3),
+    "DRAFT": Preset("Draft", "Patches a quarter of the scene, 16 rays, 1 % of the light unshot. "
+                    "Cornell box: 0.5 s, 4 % from converged", 4, 16, 1e-2),
+    "PREVIEW": Preset("Preview", "The defaults: patches an eighth of the scene, 16 rays, 0.1 % unshot. "
+                      "Cornell box: 1.5 s, 0.7 % from converged", 8, 16, 1e-3),
+    "PRODUCTION": Preset("Production", "Patches a twelfth of the scene, 16 rays, 0.1 % unshot. "
+                         "Cornell box: 5 s, 0.35 % from converged", 12, 16, 1e-3),
     "REFERENCE": Preset("Reference", "Patches a sixteenth of the scene, 16 rays, 0.01 % unshot: to check other "
-                        "bakes against. Cornell box: 10 s, 0.3 % from converged", 16, 16, 1e-4),
+                        "bakes against. Cornell box: 14 s, 0.3 % from converged", 16, 16, 1e-4),
 }
 
 

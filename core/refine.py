@@ -62,12 +62,12 @@ def radiosity_jumps(mesh: Discretization, radiosity: np.ndarray, crease_angle: f
 
 def corner_gaps(mesh: Discretization, node_colors: np.ndarray, radiosity: np.ndarray) -> np.ndarray:
     """(F,) for each front patch, max over the receiver nodes at its own corners (nodes of its
-    input triangle, within 1 % of its size of one of its corners) and channels of
+    panel, within 1 % of its size of one of its corners) and channels of
     |c_node - B_p|: where a patch cannot show how light changes towards a vertex, which is
     where colours are read."""
     front = mesh.front_patch_count
     corners = mesh.patch_corners[:front]
-    nodes = mesh.corner_node[mesh.patch_triangle[:front]]  # (F, 3) nodes of each patch's triangle
+    nodes = mesh.panel_node[mesh.patch_triangle[:front]]  # (F, 3) nodes of each patch's panel
     size = np.linalg.norm(corners[:, 1] - corners[:, 0], axis=1) + np.linalg.norm(corners[:, 2] - corners[:, 0], axis=1)
     gaps = np.zeros(front)
     for k in range(3):

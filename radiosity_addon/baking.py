@@ -81,6 +81,7 @@ def describe(stats: dict, objects: int, prepared: Prepared) -> str:
     left_text = (f", estimated error {100 * estimate['total']:.2g}% (solver {100 * estimate['unshot']:.2g}%, "
                  f"patches {100 * estimate['discretisation']:.2g}%)")
     output = "lighting" if prepared.lighting_only else "radiosity"
-    return (f"Baked {output} into '{prepared.attribute}' on {objects} object(s): {stats['triangles']:,} triangles, "
-            f"{stats['patches']:,} patches, {stats['nodes']:,} vertex colours, {stats['lights']} light object(s), "
-            f"{stats['seconds']['total']:.1f} s{left_text}")
+    merged = f" merged into {stats['panels']:,} panels" if stats["panels"] != stats["triangles"] else ""
+    return (f"Baked {output} into '{prepared.attribute}' on {objects} object(s): {stats['triangles']:,} triangles"
+            f"{merged}, {stats['patches']:,} patches, {stats['nodes']:,} vertex colours, "
+            f"{stats['lights']} light object(s), {stats['seconds']['total']:.1f} s{left_text}")

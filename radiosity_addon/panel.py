@@ -40,6 +40,7 @@ def draw_advanced(layout, settings) -> None:
     layout.prop(settings, "method")
     layout.prop(settings, "solver")
     layout.prop(settings, "ambient")
+    layout.prop(settings, "merge_flat")
     layout.prop(settings, "two_sided")
     layout.prop(settings, "crease_angle")
     layout.prop(settings, "modified_topology")

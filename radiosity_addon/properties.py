@@ -75,6 +75,12 @@ class RadiositySettings(bpy.types.PropertyGroup):
         name="Ambient Term", default=True,
         description="Add an estimate of the light not yet shot (progressive only)",
     )
+    merge_flat: bpy.props.BoolProperty(
+        name="Merge Flat Surfaces", default=True,
+        description="Solve finely tessellated flat surfaces on panels up to the patch size, not triangle by "
+        "triangle (a 40 x 40 grid wall costs about what a plain one does); colours are still evaluated at "
+        "every vertex. Off: every triangle is at least one patch",
+    )
     two_sided: bpy.props.BoolProperty(
         name="Two-Sided Surfaces", default=True,
         description="Surfaces reflect and emit on both sides, as in Cycles; off halves the patches",
@@ -107,7 +113,8 @@ class RadiositySettings(bpy.types.PropertyGroup):
             }
         else:
             knobs = preset_knobs(self.preset, extent)
-        knobs |= {"ambient": self.ambient, "crease_angle": math.degrees(self.crease_angle)}
+        knobs |= {"ambient": self.ambient, "crease_angle": math.degrees(self.crease_angle),
+                  "merge_flat": self.merge_flat}
         return self.method, self.solver, knobs
 
 

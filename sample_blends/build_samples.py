@@ -367,15 +367,16 @@ def cornell_material(name: str, mtl: dict[str, tuple[float, ...]]) -> bpy.types.
     return diffuse_principled(name, mtl["Kd"])
 
 
-def build_cornell_box() -> bpy.types.Scene:
-    """The Cornell box of cornell_box.obj: one object per OBJ object, quads split into grids."""
+def build_cornell_box(cell: float = CORNELL_CELL) -> bpy.types.Scene:
+    """The Cornell box of cornell_box.obj: one object per OBJ object, quads split into grids of
+    cells of about ``cell`` metres."""
     scene = bpy.context.scene
     objects, mtl = read_obj(CORNELL_OBJ)
     materials = {name: cornell_material(name, entry) for name, entry in mtl.items()}
     for item in objects:
         builder = MeshBuilder()
         for polygon in item.polygons:
-            builder.add_quad(polygon, CORNELL_CELL)
+            builder.add_quad(polygon, cell)
         builder.to_object(item.name, materials[item.material])
 
     set_world(scene, (0.0, 0.0, 0.0), 1.0)
@@ -587,11 +588,11 @@ SCENES = {
 }
 
 
-def build(name: str, output_dir: Path) -> Path:
+def build(name: str, output_dir: Path, cornell_cell: float = CORNELL_CELL) -> Path:
     """Build one scene in a fresh empty file and save it (compressed, no .blend1 backup)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.context.preferences.filepaths.save_version = 0  # no .blend1 backup when overwriting
-    scene = SCENES[name]()
+    scene = build_cornell_box(cornell_cell) if name == "cornell_box" else SCENES[name]()
     path = output_dir / f"{name}.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True, check_existing=False)
     print(f"{path}: {triangle_count(scene)} triangles, {path.stat().st_size / 1024:.0f} KiB")
@@ -602,10 +603,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--output-dir", type=Path, default=HERE, help="where to save the .blend files")
     parser.add_argument("--scene", action="append", choices=list(SCENES), help="build only this scene (repeatable)")
+    parser.add_argument("--cornell-cell", type=float, default=CORNELL_CELL, metavar="METRES",
+                        help=f"grid cells of the Cornell box (default {CORNELL_CELL}: walls 8 x 8; 0.01375: 40 x 40)")
     args = parser.parse_args(argv)
     args.output_dir.mkdir(parents=True, exist_ok=True)
     for name in args.scene or SCENES:
-        build(name, args.output_dir.resolve())
+        build(name, args.output_dir.resolve(), args.cornell_cell)
     return 0
 
 

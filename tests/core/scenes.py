@@ -71,3 +71,15 @@ def tetrahedron() -> tuple[np.ndarray, np.ndarray]:
     vertices = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=float)
     triangles = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])  # counter-clockwise seen from inside
     return vertices, triangles
+
+
+def grid(corner, u, v, cells: int) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and triangles of the parallelogram corner + [0,1] u + [0,1] v split into
+    cells x cells quads of two triangles each, facing u x v."""
+    corner, u, v = (np.asarray(a, dtype=float) for a in (corner, u, v))
+    steps = np.linspace(0.0, 1.0, cells + 1)
+    s, t = (a.reshape(-1, 1) for a in np.meshgrid(steps, steps, indexing="ij"))
+    vertices = corner + s * u + t * v
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(cells), np.arange(cells), indexing="ij"))
+    a, b = i * (cells + 1) + j, (i + 1) * (cells + 1) + j  # (s, t) and (s + 1, t)
+    return vertices, np.concatenate([np.stack([a, b, b + 1], 1), np.stack([a, b + 1, a + 1], 1)])

@@ -1,0 +1,298 @@
+"""Panels: flat regions of a fine mesh merged into triangles about the patch size.
+
+A wall modelled as a 40 x 40 grid has 3,200 triangles where radiosity needs a handful of patches;
+each input triangle would otherwise be at least one patch and each vertex a receiver node, and the
+bake's cost grows with both. Here the triangles of each flat region (coplanar within rounding, one
+material, reflectance, emission and sidedness, joined across shared edges) are simplified by
+half-edge collapses (Hoppe 1996, "Progressive meshes"), restricted so that the region does not
+change: a vertex is removed only from inside its region or from a straight stretch of its outline,
+and only onto a neighbour, so every remaining vertex is an input vertex and the region's area is
+tiled exactly. A collapse is taken when the triangles it changes keep their orientation, a shape no
+thinner than MIN_SHAPE and edges no longer than the panel size; the shortest edges go first, in
+passes of collapses whose neighbourhoods do not overlap.
+
+The bake then solves the panels; each input corner takes its colour by linear interpolation in the
+panel triangle around it (``Panels.corner_panel``, ``corner_weights``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import contacts, spatial
+from .discretize import DEGENERATE_AREA_RATIO, connected_components, weld_corners
+from .geometry import areas_and_normals, longest_edges, triangle_corners
+from .scene import Scene
+
+# Planes within these (normal components; offset as a fraction of the scene's extent) are one.
+NORMAL_ROUNDING = 1e-6
+OFFSET_ROUNDING = 1e-7
+# A collapse may not leave a triangle whose area is below this fraction of its longest edge
+# squared (equilateral 0.43, half a square 0.25).
+MIN_SHAPE = 0.12
+# Three outline vertices are in line when the middle one is within this fraction of the outer
+# two's distance from their line.
+STRAIGHT = 1e-9
+# Emitting regions merge up to the panel size over this.
+EMITTER_DIVISIONS = 4
+# Collapse lengths within this ratio of each other are taken in a scrambled order.
+LENGTH_STEP = 0.1
+# Tolerance of the point location, as a fraction of the scene's extent.
+LOCATE_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class Panels:
+    """A scene's flat regions remeshed into panels, and where each input corner lies on them.
+
+    scene : the panel triangles, with the surfaces of the input triangles they come from.
+    panel_source : (Q,) int, an input triangle each panel comes from (same surface and plane).
+    panel_corner_source : (Q, 3) int, an input corner (triangle * 3 + corner) at each panel
+        corner, in the panel's region: every panel vertex is an input vertex.
+    corner_panel : (T, 3) int, the panel around each corner of each input triangle.
+    corner_weights : (T, 3, 3) barycentric weights of each input corner in that panel's corners.
+    """
+
+    scene: Scene
+    panel_source: np.ndarray
+    panel_corner_source: np.ndarray
+    corner_panel: np.ndarray
+    corner_weights: np.ndarray
+
+    def to_corners(self, panel_values: np.ndarray) -> np.ndarray:
+        """(T, 3, C) values at the input corners from (Q, 3, C) values at the panels' corners."""
+        return np.einsum("tkc,tkcx->tkx", self.corner_weights, panel_values[self.corner_panel])
+
+
+def panels(scene: Scene, panel_size: float) -> Panels | None:
+    """``scene`` with its flat regions simplified into panels no longer than ``panel_size``, or
+    None when no triangle can be merged (every panel would be an input triangle)."""
+    corners = triangle_corners(scene.vertices, scene.triangles)
+    areas, normals = areas_and_normals(corners)
+    degenerate = areas <= DEGENERATE_AREA_RATIO * longest_edges(corners) ** 2
+    if degenerate.all():
+        return None
+    weld = weld_corners(corners, scene.extent)
+    region = _regions(scene, corners, normals, weld, degenerate)
+    # vertices are per region: regions decimate independently
+    vertex_key, local = np.unique(np.stack([np.repeat(region, 3), weld.ravel()], axis=1), axis=0,
+                                  return_inverse=True)
+    local = local.reshape(-1, 3)
+    positions = np.zeros((len(vertex_key), 3))
+    positions[local.ravel()] = corners.reshape(-1, 3)
+    alive = local[~degenerate].copy()
+    owner = np.flatnonzero(~degenerate)  # input triangle each alive triangle came from
+    # the vertices of degenerate triangles stay, in every region: those triangles stay as they are
+    fixed = np.isin(vertex_key[:, 1], weld[degenerate].ravel())
+    # so do those of triangles a contact line cuts (a panel across one would blur it); only the
+    # triangles around a removable vertex can change, and only they are tested
+    changing = _removable(alive, positions, fixed)[alive].any(axis=1)
+    if not changing.any():
+        return None
+    cut = owner[changing][contacts.cut_triangles(corners, degenerate, owner[changing])]
+    fixed |= np.isin(vertex_key[:, 1], weld[cut].ravel())
+    # an emitter's patches are where its light is sampled from: larger ones blur the shadows it
+    # casts (the sample Cornell box's light in 2 panels, not 8 triangles: 1.3 % further from
+    # Cycles), so emitters merge only up to a finer size
+    limit = np.where(scene.emission.any(axis=1), panel_size / EMITTER_DIVISIONS, panel_size)
+    removed_any = False
+    while True:
+        collapse = _collapses(alive, positions, normals[owner], fixed, limit[owner])
+        if collapse is None:
+            break
+        removed_any = True
+        source, target = collapse
+        mapping = np.arange(len(positions))
+        mapping[source] = target
+        alive = mapping[alive]
+        keep = (alive[:, 0] != alive[:, 1]) & (alive[:, 1] != alive[:, 2]) & (alive[:, 2] != alive[:, 0])
+        alive, owner = alive[keep], owner[keep]
+        fixed[source] = True  # removed: never a vertex again
+    if not removed_any:
+        return None
+    # the degenerate triangles stay as they are, so their corners still find their neighbours
+    panel_vertices = np.concatenate([alive, local[degenerate]])
+    panel_source = np.concatenate([owner, np.flatnonzero(degenerate)])
+    corner_panel, corner_weights = _locate(local, positions, panel_vertices, region, panel_source,
+                                           scene.extent, degenerate)
+    input_corner = np.empty(len(positions), dtype=np.int64)
+    input_corner[local.ravel()] = np.arange(local.size)
+    used, compact = np.unique(panel_vertices, return_inverse=True)
+    panel_scene = Scene(positions[used], compact.reshape(-1, 3), scene.reflectance[panel_source],
+                        scene.emission[panel_source], material=scene.material[panel_source],
+                        two_sided=scene.two_sided[panel_source], lights=scene.lights, sky=scene.sky)
+    return Panels(panel_scene, panel_source, input_corner[panel_vertices], corner_panel, corner_weights)
+
+
+def _regions(scene: Scene, corners, normals, weld, degenerate) -> np.ndarray:
+    """(T,) region label: triangles of one plane and surface joined across shared edges; a
+    degenerate triangle is a region of its own."""
+    count = len(corners)
+    offsets = np.einsum("tx,tx->t", corners[:, 0], normals)
+    plane = np.concatenate([np.round(normals / NORMAL_ROUNDING),
+                            np.round(offsets / (OFFSET_ROUNDING * scene.extent))[:, None]], axis=1)
+    surface = np.concatenate([plane, scene.reflectance, scene.emission, scene.material[:, None],
+                              scene.two_sided[:, None]], axis=1)
+    surface_id = np.unique(surface, axis=0, return_inverse=True)[1].ravel()
+    surface_id[degenerate] = surface_id.max() + 1 + np.arange(degenerate.sum())
+    triangle = np.tile(np.arange(count), 3)
+    ends = np.concatenate([weld[:, [0, 1]], weld[:, [1, 2]], weld[:, [2, 0]]])
+    keys = np.concatenate([np.sort(ends, axis=1), surface_id[triangle][:, None]], axis=1)
+    order = np.lexsort(keys.T[::-1])
+    same = (keys[order][1:] == keys[order][:-1]).all(axis=1)
+    pairs = np.stack([triangle[order][:-1][same], triangle[order][1:][same]], axis=1)
+    return connected_components(count, pairs)
+
+
+def _collapses(triangles: np.ndarray, positions: np.ndarray, normals: np.ndarray, fixed: np.ndarray,
+               limit: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """One pass: (sources, targets) of half-edge collapses whose stars do not overlap, or None;
+    no changed triangle may have an edge longer than its ``limit`` (per triangle)."""
+    vertex_count = len(positions)
+    count = len(triangles)
+    interior, on_outline, boundary = _vertex_kinds(triangles, positions, fixed)
+    # candidate half-edges u -> v: from an interior vertex to any neighbour, from a straight
+    # outline vertex to its outline neighbours
+    start = triangles.ravel()
+    end = triangles[:, [1, 2, 0]].ravel()
+    source = np.concatenate([start, end])
+    target = np.concatenate([end, start])
+    along_outline = np.concatenate([boundary, boundary])
+    keep = interior[source] | (on_outline[source] & along_outline)
+    source, target = source[keep], target[keep]
+    pair_key = np.unique(source * vertex_count + target)
+    source, target = pair_key // vertex_count, pair_key % vertex_count
+    if len(source) == 0:
+        return None
+    # the star of each candidate's source: its triangles, through a vertex -> triangle listing
+    star_size = np.bincount(triangles.ravel(), minlength=vertex_count)
+    corner_triangle = np.repeat(np.arange(count), 3)
+    order = np.argsort(triangles.ravel(), kind="stable")
+    star_start = np.concatenate([[0], np.cumsum(star_size)])
+    sizes = star_size[source]
+    candidate = np.repeat(np.arange(len(source)), sizes)
+    offsets = np.arange(sizes.sum()) - np.repeat(np.cumsum(sizes) - sizes, sizes)
+    star = corner_triangle[order][star_start[source][candidate] + offsets]
+    moved = triangles[star]
+    gone = (moved == target[candidate][:, None]).any(axis=1)
+    moved = np.where(moved == source[candidate][:, None], target[candidate][:, None], moved)
+    points = positions[moved]
+    area = np.einsum("kx,kx->k", np.cross(points[:, 1] - points[:, 0], points[:, 2] - points[:, 0]), normals[star]) / 2
+    longest = longest_edges(points)
+    good = gone | ((area >= MIN_SHAPE * longest ** 2) & (longest <= limit[star]))
+    valid = np.bincount(candidate, weights=~good, minlength=len(source)) == 0
+    if not valid.any():
+        return None
+    # shortest valid edge per source, then those whose stars no better candidate touches; equal
+    # lengths (within LENGTH_STEP) in a scrambled order, so that a regular grid yields many
+    # winners per pass (Luby's independent sets), not a few along the index order
+    length = np.linalg.norm(positions[target] - positions[source], axis=1)
+    bucket = np.floor(np.log(np.maximum(length, np.finfo(float).tiny)) / np.log1p(LENGTH_STEP))
+    scramble = (source * 2654435761 + target * 40503) % 1000003
+    rank = np.empty(len(source), dtype=np.int64)
+    rank[np.lexsort((np.arange(len(source)), scramble, bucket))] = np.arange(len(source))
+    rank = np.where(valid, rank, np.iinfo(np.int64).max)
+    best = np.full(vertex_count, np.iinfo(np.int64).max)
+    np.minimum.at(best, source, rank)
+    chosen = valid & (rank == best[source])
+    claim = np.full(count, np.iinfo(np.int64).max)
+    in_chosen = chosen[candidate]
+    np.minimum.at(claim, star[in_chosen], rank[candidate][in_chosen])
+    # a collapse also touches the triangles around its target's edge to the source: already in
+    # the star; and no two winners may share a triangle
+    lowest = np.full(len(source), np.iinfo(np.int64).max)
+    np.minimum.at(lowest, candidate, claim[star])
+    winners = chosen & (lowest == rank)
+    if not winners.any():
+        return None
+    return source[winners], target[winners]
+
+
+def _removable(triangles: np.ndarray, positions: np.ndarray, fixed: np.ndarray) -> np.ndarray:
+    """(V,) bool: vertices a collapse may remove (inside their region, or on a straight stretch
+    of its outline, and not ``fixed``). A collapse keeps every other vertex's kind."""
+    interior, on_outline, _ = _vertex_kinds(triangles, positions, fixed)
+    return interior | on_outline
+
+
+def _vertex_kinds(triangles: np.ndarray, positions: np.ndarray, fixed: np.ndarray):
+    """(V,) bool interior vertices, (V,) bool straight outline vertices (neither ``fixed``), and
+    (3 T,) bool whether each edge (t, k) -> (t, k + 1) is on the outline (used once)."""
+    vertex_count = len(positions)
+    start = triangles.ravel()
+    end = triangles[:, [1, 2, 0]].ravel()
+    edge_keys = np.minimum(start, end) * vertex_count + np.maximum(start, end)
+    _, edge_index, uses = np.unique(edge_keys, return_inverse=True, return_counts=True)
+    boundary = uses[edge_index] == 1
+    nonmanifold = np.zeros(vertex_count, dtype=bool)
+    nonmanifold[start[uses[edge_index] > 2]] = True
+    nonmanifold[end[uses[edge_index] > 2]] = True
+    boundary_degree = np.bincount(start[boundary], minlength=vertex_count) \
+        + np.bincount(end[boundary], minlength=vertex_count)
+    # a boundary vertex's two outline neighbours: the ends of its two boundary edges
+    outline_next = np.full(vertex_count, -1)
+    outline_previous = np.full(vertex_count, -1)
+    outline_next[start[boundary]] = end[boundary]
+    outline_previous[end[boundary]] = start[boundary]
+    star_size = np.bincount(start, minlength=vertex_count)
+    interior = (boundary_degree == 0) & ~nonmanifold & ~fixed & (star_size >= 3)
+    on_outline = (boundary_degree == 2) & ~nonmanifold & ~fixed & (outline_next >= 0) & (outline_previous >= 0)
+    chosen = np.flatnonzero(on_outline)
+    a, b = positions[outline_previous[chosen]], positions[outline_next[chosen]]
+    middle = positions[chosen]
+    span = b - a
+    off_line = np.linalg.norm(np.cross(middle - a, span), axis=1)
+    between = (((middle - a) * span).sum(axis=1) > 0) & (((b - middle) * span).sum(axis=1) > 0)
+    on_outline[chosen] = between & (off_line <= STRAIGHT * (span ** 2).sum(axis=1))
+    return interior, on_outline, boundary
+
+
+def _locate(local, positions, panel_vertices, region, panel_source, extent, degenerate):
+    """The panel around each input corner and its barycentric weights there: a corner at a panel
+    vertex takes that vertex; another, the panel of its region containing it."""
+    triangle_count = len(local)
+    corner_panel = np.full(triangle_count * 3, -1)
+    corner_weights = np.zeros((triangle_count * 3, 3))
+    flat = local.ravel()
+    # corners at a remaining vertex: any panel with that vertex, weight 1 there
+    holder = np.full(len(positions), -1)
+    holder_corner = np.full(len(positions), -1)
+    for k in range(3):
+        holder[panel_vertices[:, k]] = np.arange(len(panel_vertices))
+        holder_corner[panel_vertices[:, k]] = k
+    at_vertex = holder[flat] >= 0
+    corner_panel[at_vertex] = holder[flat[at_vertex]]
+    corner_weights[np.flatnonzero(at_vertex), holder_corner[flat[at_vertex]]] = 1.0
+    missing = np.flatnonzero(~at_vertex)
+    if len(missing):
+        points = positions[flat[missing]]
+        point_region = np.repeat(region, 3)[missing]
+        panel_corners = positions[panel_vertices]
+        pad = LOCATE_TOLERANCE * extent
+        found_point, found_panel = spatial.overlapping_boxes(points, points, panel_corners.min(axis=1) - pad,
+                                                             panel_corners.max(axis=1) + pad)
+        same = region[panel_source[found_panel]] == point_region[found_point]
+        found_point, found_panel = found_point[same], found_panel[same]
+        weights = _barycentric(points[found_point], panel_corners[found_panel])
+        inside = weights.min(axis=1)
+        order = np.lexsort((-inside, found_point))
+        first = np.unique(found_point[order], return_index=True)[1]
+        best = order[first]
+        if len(best) != len(missing):
+            raise AssertionError("a removed vertex lies in no panel of its region")
+        corner_panel[missing[found_point[best]]] = found_panel[best]
+        corner_weights[missing[found_point[best]]] = np.clip(weights[best], 0.0, 1.0) / \
+            np.clip(weights[best], 0.0, 1.0).sum(axis=1, keepdims=True)
+    return corner_panel.reshape(-1, 3), corner_weights.reshape(-1, 3, 3)
+
+
+def _barycentric(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(K, 3) barycentric coordinates of points (K, 3) in the planes of triangles (K, 3, 3)."""
+    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    normal = np.cross(b - a, c - a)
+    total = (normal ** 2).sum(axis=1)
+    weight_a = np.einsum("kx,kx->k", np.cross(c - b, points - b), normal) / total
+    weight_b = np.einsum("kx,kx->k", np.cross(a - c, points - c), normal) / total
+    return np.stack([weight_a, weight_b, 1 - weight_a - weight_b], axis=1)

@@ -1,0 +1,139 @@
+"""Flat regions merged into panels (core.simplify, bake(merge_flat=True)): the panels tile each
+region exactly, every input corner is found on them, and bakes keep their exact answers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from core import Scene, bake
+from core.analytic import point_to_triangle
+from core.contacts import pieces
+from core.geometry import areas_and_normals
+from core.simplify import panels
+from tests.core.scenes import box, grid, merge, quad, uniform
+
+
+def l_shaped_floor_and_wall(cells: int = 12) -> Scene:
+    """A floor split cells x cells with one quarter left out (an L: one reflex corner), and a
+    wall split the same way standing on its edge; two materials."""
+    vertices, triangles = grid([0, 0, 0], [1, 0, 0], [0, 1, 0], cells)
+    centres = vertices[triangles].mean(axis=1)
+    triangles = triangles[~((centres[:, 0] > 0.5) & (centres[:, 1] > 0.5))]
+    wall = grid([0, 0, 0], [0, 0, 1], [0, 1, 0], cells)  # x = 0, faces +x
+    vertices, triangles = merge((vertices, triangles), wall)
+    count = len(triangles)
+    on_wall = np.arange(count) >= count - 2 * cells**2
+    reflectance = np.where(on_wall[:, None], [0.6, 0.2, 0.2], [0.5, 0.5, 0.5])
+    return Scene(vertices, triangles, reflectance, np.zeros((count, 3)), material=on_wall.astype(int))
+
+
+def test_panels_tile_each_flat_region_and_hold_every_input_corner():
+    scene = l_shaped_floor_and_wall()
+    size = 0.3
+    result = panels(scene, size)
+    merged = result.scene
+    assert len(merged.triangles) < len(scene.triangles) / 4
+    input_corners = scene.vertices[scene.triangles]
+    panel_corners = merged.vertices[merged.triangles]
+    input_areas, input_normals = areas_and_normals(input_corners)
+    panel_areas, panel_normals = areas_and_normals(panel_corners)
+    for material in (0, 1):  # each region keeps its area, its plane's orientation
+        assert panel_areas[merged.material == material].sum() == pytest.approx(
+            input_areas[scene.material == material].sum(), rel=1e-12)
+        np.testing.assert_allclose(panel_normals[merged.material == material],
+                                   np.broadcast_to(input_normals[scene.material == material][0],
+                                                   panel_normals[merged.material == material].shape), atol=1e-12)
+    edges = np.linalg.norm(panel_corners - panel_corners[:, [1, 2, 0]], axis=2)
+    assert edges.max() <= size + 1e-12
+    # every panel vertex is an input vertex; the L's reflex corner stays one
+    distance = np.linalg.norm(merged.vertices[:, None] - scene.vertices[None], axis=2).min(axis=1)
+    assert distance.max() <= 1e-12
+    assert np.linalg.norm(merged.vertices - [0.5, 0.5, 0.0], axis=1).min() <= 1e-12
+    # each input corner: in a panel of its own material, at the position its weights give
+    weights = result.corner_weights
+    assert (weights >= 0).all() and np.allclose(weights.sum(axis=2), 1.0, atol=1e-12)
+    found = np.einsum("tkc,tkcx->tkx", weights, panel_corners[result.corner_panel])
+    np.testing.assert_allclose(found, input_corners, atol=1e-12)
+    assert (merged.material[result.corner_panel] == scene.material[:, None]).all()
+    # and values at the panel corners come back exactly where the input corners are panel corners
+    values = panel_corners[..., :1] * 0 + panel_corners.sum(axis=2, keepdims=True)  # x + y + z, linear
+    np.testing.assert_allclose(result.to_corners(values)[..., 0], input_corners.sum(axis=2), atol=1e-12)
+
+
+def test_a_mesh_with_nothing_to_merge_has_no_panels():
+    vertices, triangles = box()
+    assert panels(uniform(vertices, triangles, 0.5, 0.0), 0.25) is None
+
+
+def test_triangles_cut_by_a_contact_line_keep_their_vertices():
+    """A block standing on a fine floor: the floor triangles its footprint crosses stay as they
+    are, so no panel straddles the contact line."""
+    floor = grid([0, 0, 0], [1, 0, 0], [0, 1, 0], 10)
+    block_vertices, block_triangles = box(0.33)
+    block = (block_vertices + [0.31, 0.27, 0.0], block_triangles[:, ::-1])  # outward-facing cube
+    scene = uniform(*merge(floor, block), 0.5, 0.0)
+    corners = scene.vertices[scene.triangles]
+    cut = np.bincount(pieces(corners, np.zeros(len(corners), dtype=bool))[1], minlength=len(corners)) > 1
+    assert cut.sum() > 10
+    merged = panels(scene, 0.5).scene
+    kept = np.linalg.norm(corners[cut].reshape(-1, 1, 3) - merged.vertices[None], axis=2).min(axis=1)
+    assert kept.max() <= 1e-12
+
+
+@pytest.mark.parametrize("levels", [0, 1])
+def test_a_finely_split_furnace_stays_exact_when_merged(levels):
+    """Closed cube, each face 8 x 8 quads, rho = 0.8, E = 1: B = E / (1 - rho) = 5. The panels
+    differ in size, so the ambient term of the light left unshot is no longer exact at every
+    point (it is with congruent patches): the solve runs to 1e-7 of the light unshot, which can
+    move a colour by at most 1e-7 / (1 - rho) = 5e-7 of it. (The hemicube is not exact in a
+    furnace of fine triangles, merged or not: its aliasing.)"""
+    faces = [grid(c, u, v, 8) for c, u, v in (([0, 0, 0], [1, 0, 0], [0, 1, 0]), ([0, 0, 1], [0, 1, 0], [1, 0, 0]),
+                                               ([0, 0, 0], [0, 1, 0], [0, 0, 1]), ([1, 0, 0], [0, 0, 1], [0, 1, 0]),
+                                               ([0, 0, 0], [0, 0, 1], [1, 0, 0]), ([0, 1, 0], [1, 0, 0], [0, 0, 1]))]  # inwards
+    scene = uniform(*merge(*faces), 0.8, 1.0)
+    # every face emits, and emitters merge up to a quarter of the patch size: 0.5
+    result = bake(scene, merge_flat=True, patch_size=2.0, refinement_levels=levels, tolerance=1e-7)
+    assert result.stats["panels"] < len(scene.triangles) / 4
+    np.testing.assert_allclose(result.corner_colors, 5.0, rtol=1e-6)
+
+
+def test_merged_receiver_still_gets_the_exact_light_at_every_vertex():
+    """A grey 16 x 16 grid under a parallel emitting unit square 1 above: one bounce,
+    B = rho E F(vertex -> emitter) at every vertex (exact point-to-polygon form factor). The
+    receiver merges into a few panels; its vertices are still evaluated one by one. Tolerance:
+    the core evaluates a vertex 1e-3 of the way into its faces (about 1e-4 here) and the
+    emitter's patches by their corner-sampled rays, which are exact when nothing occludes."""
+    receiver = grid([0, 0, 0], [1, 0, 0], [0, 1, 0], 16)
+    emitter = quad([0, 0, 1], [0, 1, 0], [1, 0, 0])
+    vertices, triangles = merge(receiver, emitter)
+    lit = np.arange(len(triangles)) < len(receiver[1])
+    rho = 0.5
+    scene = Scene(vertices, triangles, np.where(lit[:, None], rho, 0.0) * np.ones(3),
+                  np.where(lit[:, None], 0.0, 1.0) * np.ones(3))
+    result = bake(scene, merge_flat=True, patch_size=0.5)
+    assert result.stats["panels"] < len(triangles) / 8
+    corners = vertices[triangles[lit]].reshape(-1, 3)
+    up = np.tile([0.0, 0.0, 1.0], (len(corners), 1))
+    emitter_corners = emitter[0][emitter[1]]
+    factors = sum(point_to_triangle(corners, up, np.broadcast_to(t, (len(corners), 3, 3))) for t in emitter_corners)
+    truth = rho * factors
+    np.testing.assert_allclose(result.corner_colors[lit].reshape(-1, 3)[:, 0], truth, rtol=2e-3)
+
+
+def test_a_zero_area_triangle_in_a_merged_grid_takes_its_neighbours_colour():
+    vertices, triangles = grid([0, 0, 0], [1, 0, 0], [0, 1, 0], 8)
+    sliver = [[0, 1, 2]]  # three collinear vertices along the grid's first row: zero area
+    ceiling = quad([0, 0, 1], [0, 1, 0], [1, 0, 0])
+    vertices, triangles = merge((vertices, np.concatenate([triangles, sliver])), ceiling)
+    count = len(triangles)
+    emitting = np.arange(count) >= count - 2
+    scene = Scene(vertices, triangles, np.full((count, 3), 0.5), np.where(emitting[:, None], 1.0, 0.0) * np.ones(3))
+    result = bake(scene, merge_flat=True, patch_size=0.5)
+    assert result.stats["panels"] < count / 3
+    colours = result.corner_colors
+    assert np.isfinite(colours).all()
+    sliver_index = count - 3
+    neighbour = np.flatnonzero((triangles[:-3] == 1).any(axis=1))[0]
+    at_vertex = colours[neighbour][triangles[neighbour] == 1][0]
+    np.testing.assert_allclose(colours[sliver_index][1], at_vertex, rtol=1e-12)
