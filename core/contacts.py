@@ -21,7 +21,12 @@ from . import spatial
 from .geometry import areas_and_normals, longest_edges
 
 CONTACT_TOLERANCE = 1e-6  # distance to a plane, as a fraction of the triangle's longest edge, that counts as on it
-PARALLEL = 1e-9  # 1 - |cos| below which two triangles are coplanar (or parallel) and do not cut each other
+# 1 - |cos| below which two triangles are coplanar (or parallel) and do not cut each other: an angle
+# of 1e-3 radians. It absorbs float32 rounding (Blender's coordinates: 6e-8 of a 1 m scene, 1e-5
+# radians on a 1 cm triangle) and near-flat modelling (the Cornell box's left wall is a twisted
+# quad: split 40 x 40, neighbouring cells differ by 3e-4 radians, and at 1e-9 half of them cut
+# each other along their shared edges); a cylinder of 1,000 sides bends by 6e-3 radians.
+PARALLEL = 1 - np.cos(1e-3)
 
 
 def pieces(corners: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -71,22 +76,11 @@ def coplanar_overlaps(corners: np.ndarray, owners: np.ndarray) -> np.ndarray:
     return result
 
 
-def cut_triangles(corners: np.ndarray, degenerate: np.ndarray, subjects: np.ndarray) -> np.ndarray:
-    """(k,) bool: whether a contact line cuts each triangle of ``subjects`` (k,) (the triangles
-    ``pieces`` would cut), without cutting them."""
-    cut = np.zeros(len(corners), dtype=bool)
-    cut[list(_contact_lines(corners, degenerate, subjects))] = True
-    return cut[subjects]
-
-
-def _contact_lines(corners: np.ndarray, degenerate: np.ndarray,
-                   subjects: np.ndarray | None = None) -> dict[int, list[tuple[np.ndarray, np.ndarray]]]:
-    """For each triangle (of ``subjects``, default all) met by another inside, the lines
-    (start, end) that cut it."""
+def _contact_lines(corners: np.ndarray, degenerate: np.ndarray) -> dict[int, list[tuple[np.ndarray, np.ndarray]]]:
+    """For each triangle met by another inside, the lines (start, end) that cut it."""
     valid = np.flatnonzero(~degenerate)
-    chosen = valid if subjects is None else np.intersect1d(subjects, valid)
-    first, second = _touching_boxes(corners[chosen], None if subjects is None else corners[valid])
-    target, other = chosen[first], valid[second]
+    first, second = _touching_boxes(corners[valid])
+    target, other = valid[first], valid[second]
     _, normals = areas_and_normals(corners)
     crossing = np.abs((normals[target] * normals[other]).sum(axis=1)) < 1 - PARALLEL
     target, other = target[crossing], other[crossing]
@@ -104,16 +98,13 @@ def _contact_lines(corners: np.ndarray, degenerate: np.ndarray,
     return lines
 
 
-def _touching_boxes(corners: np.ndarray, others: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Pairs (i, j) of triangles (k, 3, 3) and ``others`` (default: the same triangles) whose
-    bounding boxes, grown by CONTACT_TOLERANCE of the triangle's size, touch: the candidates for
-    meeting (within one set, each pair both ways, and each with itself)."""
-    def boxes(triangles):
-        pad = (CONTACT_TOLERANCE * longest_edges(triangles))[:, None]
-        return triangles.min(axis=1) - pad, triangles.max(axis=1) + pad
-    low, high = boxes(corners)
-    other_low, other_high = (low, high) if others is None else boxes(others)
-    return spatial.overlapping_boxes(low, high, other_low, other_high)
+def _touching_boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs of triangles (k, 3, 3) whose bounding boxes, grown by CONTACT_TOLERANCE of the
+    triangle's size, touch: the candidates for meeting (each pair both ways, and each with
+    itself)."""
+    pad = (CONTACT_TOLERANCE * longest_edges(corners))[:, None]
+    low, high = corners.min(axis=1) - pad, corners.max(axis=1) + pad
+    return spatial.overlapping_boxes(low, high, low, high)
 
 
 def _plane_sections(triangles: np.ndarray, heights: np.ndarray):

@@ -95,7 +95,10 @@ def discretize(scene: Scene, patch_size: float | None = None, crease_angle: floa
     source = scene if panels is None else panels.scene
     patches = _patches(source, patch_size, cut_contacts)
     report(0.4)
-    nodes = _receiver_nodes(scene, crease_angle)
+    # with panels, nodes sit on them (where an input vertex of a near-flat region lies on its
+    # panel), so that the patches of their own surface never hide them
+    on_panels = None if panels is None else panels.to_corners(triangle_corners(source.vertices, source.triangles))
+    nodes = _receiver_nodes(scene, crease_angle, on_panels)
     if panels is None:
         panel_node = nodes["corner_node"]
     else:
@@ -177,7 +180,9 @@ def _split_triangles(corners: np.ndarray, divisions: np.ndarray) -> dict[str, np
     return {"corners": np.concatenate(parts)[order], "triangle": np.concatenate(parents)[order]}
 
 
-def _receiver_nodes(scene: Scene, crease_angle: float) -> dict[str, np.ndarray]:
+def _receiver_nodes(scene: Scene, crease_angle: float, corner_points: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """Nodes of the corners of ``scene``'s triangles, evaluated at ``corner_points`` (T, 3, 3)
+    (default: the corners themselves) moved NODE_INSET towards their faces."""
     corners = triangle_corners(scene.vertices, scene.triangles)
     areas, normals = areas_and_normals(corners)
     degenerate = areas <= DEGENERATE_AREA_RATIO * longest_edges(corners) ** 2
@@ -201,7 +206,7 @@ def _receiver_nodes(scene: Scene, crease_angle: float) -> dict[str, np.ndarray]:
     node_normals = mean(normals[triangle_of])
     node_normals /= np.linalg.norm(node_normals, axis=1, keepdims=True)
     positions = np.zeros((group_count, 3))
-    positions[corner_group] = corners.reshape(-1, 3)[valid_corners]
+    positions[corner_group] = (corners if corner_points is None else corner_points).reshape(-1, 3)[valid_corners]
     towards_faces = mean(corners.mean(axis=1)[triangle_of]) - positions
     towards_faces -= (towards_faces * node_normals).sum(axis=1, keepdims=True) * node_normals
     corner_node = np.full(triangle_count * 3, -1, dtype=np.int64)

@@ -1,18 +1,21 @@
 """Panels: flat regions of a fine mesh merged into triangles about the patch size.
 
-A wall modelled as a 40 x 40 grid has 3,200 triangles where radiosity needs a handful of patches;
-each input triangle would otherwise be at least one patch and each vertex a receiver node, and the
-bake's cost grows with both. Here the triangles of each flat region (coplanar within rounding, one
-material, reflectance, emission and sidedness, joined across shared edges) are simplified by
-half-edge collapses (Hoppe 1996, "Progressive meshes"), restricted so that the region does not
-change: a vertex is removed only from inside its region or from a straight stretch of its outline,
-and only onto a neighbour, so every remaining vertex is an input vertex and the region's area is
-tiled exactly. A collapse is taken when the triangles it changes keep their orientation, a shape no
-thinner than MIN_SHAPE and edges no longer than the panel size; the shortest edges go first, in
-passes of collapses whose neighbourhoods do not overlap.
+A wall modelled as a 40 x 40 grid has 3,200 triangles where radiosity needs a few dozen patches:
+each input triangle would otherwise be at least one patch, and the solve's cost grows with the
+patches times the receivers. Here the triangles of each flat region (one reflectance, emission,
+material and sidedness, neighbours across shared edges parallel within contacts.PARALLEL) are
+simplified by half-edge collapses (Hoppe 1996, "Progressive meshes"), restricted so that the region
+does not change: a vertex is removed only from inside its region or from a straight stretch of its
+outline, and only onto a neighbour, so every remaining vertex is an input vertex and the region's
+outline stays exactly where it was (no gap opens towards the next region). A collapse is taken when
+the triangles it changes keep their orientation, a shape no thinner than MIN_SHAPE, edges no longer
+than the panel size, and the removed vertex within FLATNESS of their planes; the shortest edges go
+first, in passes of collapses whose neighbourhoods do not overlap.
 
-The bake then solves the panels; each input corner takes its colour by linear interpolation in the
-panel triangle around it (``Panels.corner_panel``, ``corner_weights``).
+The panels are then cut along contact lines and split into patches like input triangles
+(``discretize``); the vertex colours are still evaluated at every input vertex, placed on its
+panel (``Panels.corner_panel``, ``corner_weights``), so a fine mesh keeps its detail in the
+colours while its patches follow the patch size.
 """
 
 from __future__ import annotations
@@ -26,21 +29,22 @@ from .discretize import DEGENERATE_AREA_RATIO, connected_components, weld_corner
 from .geometry import areas_and_normals, longest_edges, triangle_corners
 from .scene import Scene
 
-# Planes within these (normal components; offset as a fraction of the scene's extent) are one.
-NORMAL_ROUNDING = 1e-6
-OFFSET_ROUNDING = 1e-7
+# Neighbouring triangles closer to parallel than contacts.PARALLEL (1e-3 radians) are one flat
+# region: float32 rounding and near-flat modelling, not curved surfaces.
+# A collapse keeps the vertex it removes within this fraction of each changed triangle's longest
+# edge of its plane (the left wall's panels: within 0.3 % of their size).
+FLATNESS = 1e-2
+# An outline vertex is removed only where its neighbours' line passes within this fraction of the
+# scene's extent of it (float32 rounding), and within FLATNESS of their distance, so no outline
+# moves and no gap opens between regions.
+STRAIGHT = 1e-6
 # A collapse may not leave a triangle whose area is below this fraction of its longest edge
 # squared (equilateral 0.43, half a square 0.25).
 MIN_SHAPE = 0.12
-# Three outline vertices are in line when the middle one is within this fraction of the outer
-# two's distance from their line.
-STRAIGHT = 1e-9
 # Emitting regions merge up to the panel size over this.
 EMITTER_DIVISIONS = 4
 # Collapse lengths within this ratio of each other are taken in a scrambled order.
 LENGTH_STEP = 0.1
-# Tolerance of the point location, as a fraction of the scene's extent.
-LOCATE_TOLERANCE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -75,7 +79,7 @@ def panels(scene: Scene, panel_size: float) -> Panels | None:
     if degenerate.all():
         return None
     weld = weld_corners(corners, scene.extent)
-    region = _regions(scene, corners, normals, weld, degenerate)
+    region = _regions(scene, normals, weld, degenerate)
     # vertices are per region: regions decimate independently
     vertex_key, local = np.unique(np.stack([np.repeat(region, 3), weld.ravel()], axis=1), axis=0,
                                   return_inverse=True)
@@ -86,20 +90,14 @@ def panels(scene: Scene, panel_size: float) -> Panels | None:
     owner = np.flatnonzero(~degenerate)  # input triangle each alive triangle came from
     # the vertices of degenerate triangles stay, in every region: those triangles stay as they are
     fixed = np.isin(vertex_key[:, 1], weld[degenerate].ravel())
-    # so do those of triangles a contact line cuts (a panel across one would blur it); only the
-    # triangles around a removable vertex can change, and only they are tested
-    changing = _removable(alive, positions, fixed)[alive].any(axis=1)
-    if not changing.any():
-        return None
-    cut = owner[changing][contacts.cut_triangles(corners, degenerate, owner[changing])]
-    fixed |= np.isin(vertex_key[:, 1], weld[cut].ravel())
+    flat = STRAIGHT * scene.extent
     # an emitter's patches are where its light is sampled from: larger ones blur the shadows it
     # casts (the sample Cornell box's light in 2 panels, not 8 triangles: 1.3 % further from
     # Cycles), so emitters merge only up to a finer size
     limit = np.where(scene.emission.any(axis=1), panel_size / EMITTER_DIVISIONS, panel_size)
     removed_any = False
     while True:
-        collapse = _collapses(alive, positions, normals[owner], fixed, limit[owner])
+        collapse = _collapses(alive, positions, normals[owner], fixed, limit[owner], flat)
         if collapse is None:
             break
         removed_any = True
@@ -126,14 +124,12 @@ def panels(scene: Scene, panel_size: float) -> Panels | None:
     return Panels(panel_scene, panel_source, input_corner[panel_vertices], corner_panel, corner_weights)
 
 
-def _regions(scene: Scene, corners, normals, weld, degenerate) -> np.ndarray:
-    """(T,) region label: triangles of one plane and surface joined across shared edges; a
-    degenerate triangle is a region of its own."""
-    count = len(corners)
-    offsets = np.einsum("tx,tx->t", corners[:, 0], normals)
-    plane = np.concatenate([np.round(normals / NORMAL_ROUNDING),
-                            np.round(offsets / (OFFSET_ROUNDING * scene.extent))[:, None]], axis=1)
-    surface = np.concatenate([plane, scene.reflectance, scene.emission, scene.material[:, None],
+def _regions(scene: Scene, normals, weld, degenerate) -> np.ndarray:
+    """(T,) region label: triangles of one surface (reflectance, emission, material, sidedness)
+    joined across shared edges where they are parallel within contacts.PARALLEL; a degenerate
+    triangle is a region of its own."""
+    count = len(normals)
+    surface = np.concatenate([scene.reflectance, scene.emission, scene.material[:, None],
                               scene.two_sided[:, None]], axis=1)
     surface_id = np.unique(surface, axis=0, return_inverse=True)[1].ravel()
     surface_id[degenerate] = surface_id.max() + 1 + np.arange(degenerate.sum())
@@ -142,17 +138,20 @@ def _regions(scene: Scene, corners, normals, weld, degenerate) -> np.ndarray:
     keys = np.concatenate([np.sort(ends, axis=1), surface_id[triangle][:, None]], axis=1)
     order = np.lexsort(keys.T[::-1])
     same = (keys[order][1:] == keys[order][:-1]).all(axis=1)
-    pairs = np.stack([triangle[order][:-1][same], triangle[order][1:][same]], axis=1)
-    return connected_components(count, pairs)
+    a, b = triangle[order][:-1][same], triangle[order][1:][same]
+    flat = np.einsum("kx,kx->k", normals[a], normals[b]) >= 1 - contacts.PARALLEL
+    return connected_components(count, np.stack([a[flat], b[flat]], axis=1))
 
 
 def _collapses(triangles: np.ndarray, positions: np.ndarray, normals: np.ndarray, fixed: np.ndarray,
-               limit: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+               limit: np.ndarray, flat: float) -> tuple[np.ndarray, np.ndarray] | None:
     """One pass: (sources, targets) of half-edge collapses whose stars do not overlap, or None;
-    no changed triangle may have an edge longer than its ``limit`` (per triangle)."""
+    no changed triangle may have an edge longer than its ``limit`` (per triangle), nor lie
+    further than FLATNESS of its size from the vertex it loses; an outline vertex goes only
+    where its outline is straight within ``flat``."""
     vertex_count = len(positions)
     count = len(triangles)
-    interior, on_outline, boundary = _vertex_kinds(triangles, positions, fixed)
+    interior, on_outline, boundary = _vertex_kinds(triangles, positions, fixed, flat)
     # candidate half-edges u -> v: from an interior vertex to any neighbour, from a straight
     # outline vertex to its outline neighbours
     start = triangles.ravel()
@@ -179,10 +178,15 @@ def _collapses(triangles: np.ndarray, positions: np.ndarray, normals: np.ndarray
     gone = (moved == target[candidate][:, None]).any(axis=1)
     moved = np.where(moved == source[candidate][:, None], target[candidate][:, None], moved)
     points = positions[moved]
-    area = np.einsum("kx,kx->k", np.cross(points[:, 1] - points[:, 0], points[:, 2] - points[:, 0]), normals[star]) / 2
+    vectors = np.cross(points[:, 1] - points[:, 0], points[:, 2] - points[:, 0])
+    area = np.einsum("kx,kx->k", vectors, normals[star]) / 2
+    lost = positions[source[candidate]] - points[:, 0]
     longest = longest_edges(points)
-    good = gone | ((area >= MIN_SHAPE * longest ** 2) & (longest <= limit[star]))
-    valid = np.bincount(candidate, weights=~good, minlength=len(source)) == 0
+    off_plane = np.abs(np.einsum("kx,kx->k", vectors, lost)) <= FLATNESS * longest * 2 * np.abs(area)
+    good = gone | ((area >= MIN_SHAPE * longest ** 2) & (longest <= limit[star]) & off_plane)
+    # every changed triangle good, and one left at least (a region never collapses away)
+    valid = (np.bincount(candidate, weights=~good, minlength=len(source)) == 0) \
+        & (np.bincount(candidate, weights=~gone, minlength=len(source)) > 0)
     if not valid.any():
         return None
     # shortest valid edge per source, then those whose stars no better candidate touches; equal
@@ -210,16 +214,10 @@ def _collapses(triangles: np.ndarray, positions: np.ndarray, normals: np.ndarray
     return source[winners], target[winners]
 
 
-def _removable(triangles: np.ndarray, positions: np.ndarray, fixed: np.ndarray) -> np.ndarray:
-    """(V,) bool: vertices a collapse may remove (inside their region, or on a straight stretch
-    of its outline, and not ``fixed``). A collapse keeps every other vertex's kind."""
-    interior, on_outline, _ = _vertex_kinds(triangles, positions, fixed)
-    return interior | on_outline
-
-
-def _vertex_kinds(triangles: np.ndarray, positions: np.ndarray, fixed: np.ndarray):
-    """(V,) bool interior vertices, (V,) bool straight outline vertices (neither ``fixed``), and
-    (3 T,) bool whether each edge (t, k) -> (t, k + 1) is on the outline (used once)."""
+def _vertex_kinds(triangles: np.ndarray, positions: np.ndarray, fixed: np.ndarray, flat: float):
+    """(V,) bool interior vertices, (V,) bool straight outline vertices (within ``flat`` of the
+    line through their outline neighbours; neither ``fixed``), and (3 T,) bool whether each edge
+    (t, k) -> (t, k + 1) is on the outline (used once)."""
     vertex_count = len(positions)
     start = triangles.ravel()
     end = triangles[:, [1, 2, 0]].ravel()
@@ -245,7 +243,8 @@ def _vertex_kinds(triangles: np.ndarray, positions: np.ndarray, fixed: np.ndarra
     span = b - a
     off_line = np.linalg.norm(np.cross(middle - a, span), axis=1)
     between = (((middle - a) * span).sum(axis=1) > 0) & (((b - middle) * span).sum(axis=1) > 0)
-    on_outline[chosen] = between & (off_line <= STRAIGHT * (span ** 2).sum(axis=1))
+    length = np.linalg.norm(span, axis=1)
+    on_outline[chosen] = between & (off_line <= np.minimum(flat, FLATNESS * length) * length)
     return interior, on_outline, boundary
 
 
@@ -270,7 +269,7 @@ def _locate(local, positions, panel_vertices, region, panel_source, extent, dege
         points = positions[flat[missing]]
         point_region = np.repeat(region, 3)[missing]
         panel_corners = positions[panel_vertices]
-        pad = LOCATE_TOLERANCE * extent
+        pad = FLATNESS * longest_edges(panel_corners)[:, None]  # removed vertices lie within it of a panel
         found_point, found_panel = spatial.overlapping_boxes(points, points, panel_corners.min(axis=1) - pad,
                                                              panel_corners.max(axis=1) + pad)
         same = region[panel_source[found_panel]] == point_region[found_point]
