@@ -53,6 +53,9 @@ MAX_ITERATIONS = 200
 # Patches below this fraction of the area-mean radiosity of the patches that do not emit are left
 # to their constant: their correction would be below it too.
 DARK = 1e-2
+# A patch whose corners are all within this fraction of its size above a point's tangent plane
+# (its own surface: the rounding of a coplanar patch) is not seen from it.
+HORIZON = 1e-9
 # Point-patch pairs the gather at the interpolation nodes may cost (about 20 s of one core): in
 # a large scene (Sponza: tens of thousands of interpolation nodes) they are left out.
 GATHER_BUDGET = 50_000_000
@@ -230,6 +233,11 @@ def _near_pairs(points: np.ndarray, normals: np.ndarray, mesh: Discretization, l
     patches = candidates[patches]
     close = np.linalg.norm(points[receivers] - mesh.patch_centroids[patches], axis=1) < NEAR_REACH * edges[patches]
     receivers, patches = receivers[close], patches[close]
+    # a patch on or behind the point's tangent plane (its own surface, most of them) is not seen:
+    # F = 0 without casting a ray
+    heights = np.einsum("kcx,kx->kc", mesh.patch_corners[patches] - points[receivers][:, None], normals[receivers])
+    above = heights.max(axis=1) > HORIZON * edges[patches]
+    receivers, patches = receivers[above], patches[above]
     factors = form_factors(points, normals, receivers, patches) if len(receivers) else np.zeros(0)
     seen = factors > 0
     return receivers[seen], patches[seen], factors[seen]

@@ -96,12 +96,16 @@ def panels(scene: Scene, panel_size: float) -> Panels | None:
     # Cycles), so emitters merge only up to a finer size
     limit = np.where(scene.emission.any(axis=1), panel_size / EMITTER_DIVISIONS, panel_size)
     removed_any = False
+    # a vertex with no valid collapse rests until a collapse changes the triangles around it
+    resting = np.zeros(len(positions), dtype=bool)
     while True:
-        collapse = _collapses(alive, positions, normals[owner], fixed, limit[owner], flat)
-        if collapse is None:
+        source, target, hopeless = _collapses(alive, positions, normals[owner], fixed | resting, limit[owner], flat)
+        resting[hopeless] = True
+        if len(source) == 0:
             break
         removed_any = True
-        source, target = collapse
+        changed = np.isin(alive, source).any(axis=1)
+        resting[alive[changed].ravel()] = False
         mapping = np.arange(len(positions))
         mapping[source] = target
         alive = mapping[alive]
@@ -113,8 +117,7 @@ def panels(scene: Scene, panel_size: float) -> Panels | None:
     # the degenerate triangles stay as they are, so their corners still find their neighbours
     panel_vertices = np.concatenate([alive, local[degenerate]])
     panel_source = np.concatenate([owner, np.flatnonzero(degenerate)])
-    corner_panel, corner_weights = _locate(local, positions, panel_vertices, region, panel_source,
-                                           scene.extent, degenerate)
+    corner_panel, corner_weights = _locate(local, positions, panel_vertices, region, panel_source)
     input_corner = np.empty(len(positions), dtype=np.int64)
     input_corner[local.ravel()] = np.arange(local.size)
     used, compact = np.unique(panel_vertices, return_inverse=True)
@@ -144,11 +147,13 @@ def _regions(scene: Scene, normals, weld, degenerate) -> np.ndarray:
 
 
 def _collapses(triangles: np.ndarray, positions: np.ndarray, normals: np.ndarray, fixed: np.ndarray,
-               limit: np.ndarray, flat: float) -> tuple[np.ndarray, np.ndarray] | None:
-    """One pass: (sources, targets) of half-edge collapses whose stars do not overlap, or None;
-    no changed triangle may have an edge longer than its ``limit`` (per triangle), nor lie
-    further than FLATNESS of its size from the vertex it loses; an outline vertex goes only
-    where its outline is straight within ``flat``."""
+               limit: np.ndarray, flat: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One pass: (sources, targets) of half-edge collapses whose stars do not overlap, and the
+    vertices (not ``fixed``) that have no valid collapse; no changed triangle may have an edge
+    longer than its ``limit`` (per triangle), nor lie further than FLATNESS of its size from
+    the vertex it loses; an outline vertex goes only where its outline is straight within
+    ``flat``."""
+    empty = np.zeros(0, dtype=np.int64)
     vertex_count = len(positions)
     count = len(triangles)
     interior, on_outline, boundary = _vertex_kinds(triangles, positions, fixed, flat)
@@ -164,7 +169,7 @@ def _collapses(triangles: np.ndarray, positions: np.ndarray, normals: np.ndarray
     pair_key = np.unique(source * vertex_count + target)
     source, target = pair_key // vertex_count, pair_key % vertex_count
     if len(source) == 0:
-        return None
+        return empty, empty, empty
     # the star of each candidate's source: its triangles, through a vertex -> triangle listing
     star_size = np.bincount(triangles.ravel(), minlength=vertex_count)
     corner_triangle = np.repeat(np.arange(count), 3)
@@ -187,8 +192,9 @@ def _collapses(triangles: np.ndarray, positions: np.ndarray, normals: np.ndarray
     # every changed triangle good, and one left at least (a region never collapses away)
     valid = (np.bincount(candidate, weights=~good, minlength=len(source)) == 0) \
         & (np.bincount(candidate, weights=~gone, minlength=len(source)) > 0)
+    hopeless = np.setdiff1d(source, source[valid])
     if not valid.any():
-        return None
+        return empty, empty, hopeless
     # shortest valid edge per source, then those whose stars no better candidate touches; equal
     # lengths (within LENGTH_STEP) in a scrambled order, so that a regular grid yields many
     # winners per pass (Luby's independent sets), not a few along the index order
@@ -209,9 +215,7 @@ def _collapses(triangles: np.ndarray, positions: np.ndarray, normals: np.ndarray
     lowest = np.full(len(source), np.iinfo(np.int64).max)
     np.minimum.at(lowest, candidate, claim[star])
     winners = chosen & (lowest == rank)
-    if not winners.any():
-        return None
-    return source[winners], target[winners]
+    return source[winners], target[winners], hopeless
 
 
 def _vertex_kinds(triangles: np.ndarray, positions: np.ndarray, fixed: np.ndarray, flat: float):
@@ -248,43 +252,36 @@ def _vertex_kinds(triangles: np.ndarray, positions: np.ndarray, fixed: np.ndarra
     return interior, on_outline, boundary
 
 
-def _locate(local, positions, panel_vertices, region, panel_source, extent, degenerate):
+def _locate(local, positions, panel_vertices, region, panel_source):
     """The panel around each input corner and its barycentric weights there: a corner at a panel
-    vertex takes that vertex; another, the panel of its region containing it."""
-    triangle_count = len(local)
-    corner_panel = np.full(triangle_count * 3, -1)
-    corner_weights = np.zeros((triangle_count * 3, 3))
+    vertex takes that vertex; one at a removed vertex, the panel of its region containing it."""
     flat = local.ravel()
-    # corners at a remaining vertex: any panel with that vertex, weight 1 there
-    holder = np.full(len(positions), -1)
-    holder_corner = np.full(len(positions), -1)
+    # each vertex (of a region): any panel with it as a corner, weight 1 there
+    vertex_panel = np.full(len(positions), -1)
+    vertex_weights = np.zeros((len(positions), 3))
     for k in range(3):
-        holder[panel_vertices[:, k]] = np.arange(len(panel_vertices))
-        holder_corner[panel_vertices[:, k]] = k
-    at_vertex = holder[flat] >= 0
-    corner_panel[at_vertex] = holder[flat[at_vertex]]
-    corner_weights[np.flatnonzero(at_vertex), holder_corner[flat[at_vertex]]] = 1.0
-    missing = np.flatnonzero(~at_vertex)
-    if len(missing):
-        points = positions[flat[missing]]
-        point_region = np.repeat(region, 3)[missing]
+        vertex_panel[panel_vertices[:, k]] = np.arange(len(panel_vertices))
+        vertex_weights[panel_vertices[:, k]] = np.eye(3)[k]
+    removed = np.unique(flat[vertex_panel[flat] < 0])
+    if len(removed):
+        points = positions[removed]
+        vertex_region = np.zeros(len(positions), dtype=np.int64)
+        vertex_region[flat] = np.repeat(region, 3)
         panel_corners = positions[panel_vertices]
         pad = FLATNESS * longest_edges(panel_corners)[:, None]  # removed vertices lie within it of a panel
         found_point, found_panel = spatial.overlapping_boxes(points, points, panel_corners.min(axis=1) - pad,
                                                              panel_corners.max(axis=1) + pad)
-        same = region[panel_source[found_panel]] == point_region[found_point]
+        same = region[panel_source[found_panel]] == vertex_region[removed][found_point]
         found_point, found_panel = found_point[same], found_panel[same]
         weights = _barycentric(points[found_point], panel_corners[found_panel])
-        inside = weights.min(axis=1)
-        order = np.lexsort((-inside, found_point))
-        first = np.unique(found_point[order], return_index=True)[1]
-        best = order[first]
-        if len(best) != len(missing):
+        order = np.lexsort((-weights.min(axis=1), found_point))  # per point, the panel it is most inside
+        best = order[np.unique(found_point[order], return_index=True)[1]]
+        if len(best) != len(removed):
             raise AssertionError("a removed vertex lies in no panel of its region")
-        corner_panel[missing[found_point[best]]] = found_panel[best]
-        corner_weights[missing[found_point[best]]] = np.clip(weights[best], 0.0, 1.0) / \
-            np.clip(weights[best], 0.0, 1.0).sum(axis=1, keepdims=True)
-    return corner_panel.reshape(-1, 3), corner_weights.reshape(-1, 3, 3)
+        inside = np.clip(weights[best], 0.0, 1.0)
+        vertex_panel[removed[found_point[best]]] = found_panel[best]
+        vertex_weights[removed[found_point[best]]] = inside / inside.sum(axis=1, keepdims=True)
+    return vertex_panel[local], vertex_weights[local]
 
 
 def _barycentric(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
