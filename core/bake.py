@@ -96,7 +96,8 @@ class BakeSettings:
 @dataclass
 class BakeResult:
     """corner_colors (T, 3, 3): RGB radiosity at each corner of each input triangle, B = E + rho G.
-    triangle_radiosity (T, 3): area-weighted mean radiosity of each input triangle.
+    triangle_radiosity (T, 3): area-weighted mean radiosity of each input triangle (the mean of
+        its corner colours where patches were cut from merged panels, ``merge_flat``).
     corner_lighting (T, 3, 3): the light arriving at each corner, G = irradiance / pi (what a
         white surface would reflect: "lighting only", to multiply with a texture later).
     stats: what the bake measured (seconds per stage, shots or iterations, rays, ...)."""
@@ -140,8 +141,8 @@ def bake(
     stages.stage("discretising", 0.0, 0.02)
     patch_size = settings.patch_size if settings.patch_size is not None else scene.extent / AUTO_PATCH_DIVISIONS
     crease = math.radians(settings.crease_angle)
-    panels = simplify.panels(scene, patch_size) if settings.merge_flat else None
-    mesh = discretize(scene, patch_size, crease, stages.report, panels=panels)
+    panels = simplify.panels(scene, patch_size, lambda f: stages.report(f / 2)) if settings.merge_flat else None
+    mesh = discretize(scene, patch_size, crease, lambda f: stages.report(0.5 + f / 2), panels=panels)
     channels = 1 if scene.is_grey else 3
     seconds["discretise"], clock = _lap(clock)
 

@@ -21,6 +21,7 @@ colours while its patches follow the patch size.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -70,9 +71,11 @@ class Panels:
         return np.einsum("tkc,tkcx->tkx", self.corner_weights, panel_values[self.corner_panel])
 
 
-def panels(scene: Scene, panel_size: float) -> Panels | None:
+def panels(scene: Scene, panel_size: float,
+           report: Callable[[float], None] = lambda _fraction: None) -> Panels | None:
     """``scene`` with its flat regions simplified into panels no longer than ``panel_size``, or
-    None when no triangle can be merged (every panel would be an input triangle)."""
+    None when no triangle can be merged (every panel would be an input triangle); ``report``
+    hears the fraction of the vertices settled after each pass of collapses."""
     corners = triangle_corners(scene.vertices, scene.triangles)
     areas, normals = areas_and_normals(corners)
     degenerate = areas <= DEGENERATE_AREA_RATIO * longest_edges(corners) ** 2
@@ -98,9 +101,12 @@ def panels(scene: Scene, panel_size: float) -> Panels | None:
     removed_any = False
     # a vertex with no valid collapse rests until a collapse changes the triangles around it
     resting = np.zeros(len(positions), dtype=bool)
+    settled = 0.0
     while True:
         source, target, hopeless = _collapses(alive, positions, normals[owner], fixed | resting, limit[owner], flat)
         resting[hopeless] = True
+        settled = max(settled, float((resting | fixed).mean()))  # resting vertices may wake again
+        report(settled)
         if len(source) == 0:
             break
         removed_any = True
