@@ -96,8 +96,8 @@ class BakeSettings:
 @dataclass
 class BakeResult:
     """corner_colors (T, 3, 3): RGB radiosity at each corner of each input triangle, B = E + rho G.
-    triangle_radiosity (T, 3): area-weighted mean radiosity of each input triangle (the mean of
-        its corner colours where patches were cut from merged panels, ``merge_flat``).
+    triangle_radiosity (T, 3): area-weighted mean radiosity of each input triangle's patches (the
+        mean of its corner colours where it was merged into a larger panel, ``merge_flat``).
     corner_lighting (T, 3, 3): the light arriving at each corner, G = irradiance / pi (what a
         white surface would reflect: "lighting only", to multiply with a texture later).
     stats: what the bake measured (seconds per stage, shots or iterations, rays, ...)."""
@@ -220,8 +220,8 @@ def bake(
     elif method == "hemicube":  # the gap is what covers the hemicube's aliasing (docs/methods.md)
         change = max(change, estimate.corner_patch_gap(mesh, colors, radiosity, engine.receiving_points))
     clock = time.perf_counter()
-    corner_colors, triangle_radiosity, corner_lighting = _per_corner(scene, mesh, radiosity, node_lighting,
-                                                                     patches_per_triangle=panels is None)
+    corner_colors, triangle_radiosity, corner_lighting = _per_corner(
+        scene, mesh, radiosity, node_lighting, None if panels is None else panels.triangle_panel)
     seconds["reconstruct"], _ = _lap(clock)
     stages.report(1.0, "done", force=True)
 
@@ -374,10 +374,10 @@ def _base_bytes(mesh: Discretization) -> int:
 
 
 def _per_corner(scene: Scene, mesh: Discretization, radiosity: np.ndarray, node_lighting: np.ndarray,
-                patches_per_triangle: bool = True):
+                triangle_panel: np.ndarray | None = None):
     """Corner colours B = E + rho G and lighting G from the nodes, triangle means from the front
-    patches (from the corners when patches are cut from merged panels, not from each input
-    triangle); RGB float64."""
+    patches of each triangle's panel (``triangle_panel``: the panel that is the triangle, -1
+    where it was merged into a larger one, whose mean is then its corners'); RGB float64."""
     count = len(scene.triangles)
     rgb = np.broadcast_to(radiosity, (len(radiosity), 3)) if radiosity.shape[1] == 1 else radiosity
     lighting = np.broadcast_to(node_lighting, (len(node_lighting), 3))
@@ -386,10 +386,13 @@ def _per_corner(scene: Scene, mesh: Discretization, radiosity: np.ndarray, node_
     has_node = (corner_node >= 0)[..., None]
     corner_colors = np.where(has_node, nodes[np.maximum(corner_node, 0)], scene.emission[:, None, :])
     corner_lighting = np.where(has_node, lighting[np.maximum(corner_node, 0)], 0.0)
-    if not patches_per_triangle:
-        return np.ascontiguousarray(corner_colors), corner_colors.mean(axis=1), np.ascontiguousarray(corner_lighting)
-    front = slice(0, mesh.front_patch_count)
+    front = np.arange(mesh.front_patch_count)
     owner = mesh.patch_triangle[front]
+    if triangle_panel is not None:  # panels to input triangles
+        panel_triangle = np.full(len(mesh.panel_corners), -1)
+        panel_triangle[triangle_panel[triangle_panel >= 0]] = np.flatnonzero(triangle_panel >= 0)
+        owner = panel_triangle[owner]
+        front, owner = front[owner >= 0], owner[owner >= 0]
     weights = mesh.patch_areas[front]
     area = np.bincount(owner, weights=weights, minlength=count)
     sums = np.stack([np.bincount(owner, weights=weights * rgb[front, c], minlength=count) for c in range(3)], axis=1)

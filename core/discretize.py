@@ -95,8 +95,8 @@ def discretize(scene: Scene, patch_size: float | None = None, crease_angle: floa
     source = scene if panels is None else panels.scene
     patches = _patches(source, patch_size, cut_contacts)
     report(0.4)
-    # with panels, nodes sit on them (where an input vertex of a near-flat region lies on its
-    # panel), so that the patches of their own surface never hide them
+    # with panels, each node is evaluated on its panel (a vertex of a near-flat region may lie
+    # off it by up to simplify.FLATNESS of its size), so its own surface's patches never hide it
     on_panels = None if panels is None else panels.to_corners(triangle_corners(source.vertices, source.triangles))
     nodes = _receiver_nodes(scene, crease_angle, on_panels)
     if panels is None:
@@ -180,7 +180,8 @@ def _split_triangles(corners: np.ndarray, divisions: np.ndarray) -> dict[str, np
     return {"corners": np.concatenate(parts)[order], "triangle": np.concatenate(parents)[order]}
 
 
-def _receiver_nodes(scene: Scene, crease_angle: float, corner_points: np.ndarray | None = None) -> dict[str, np.ndarray]:
+def _receiver_nodes(scene: Scene, crease_angle: float,
+                    corner_points: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Nodes of the corners of ``scene``'s triangles, evaluated at ``corner_points`` (T, 3, 3)
     (default: the corners themselves) moved NODE_INSET towards their faces."""
     corners = triangle_corners(scene.vertices, scene.triangles)

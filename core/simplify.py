@@ -58,6 +58,8 @@ class Panels:
         corner, in the panel's region: every panel vertex is an input vertex.
     corner_panel : (T, 3) int, the panel around each corner of each input triangle.
     corner_weights : (T, 3, 3) barycentric weights of each input corner in that panel's corners.
+    triangle_panel : (T,) int, the panel that is the input triangle itself (nothing merged into
+        it), or -1.
     """
 
     scene: Scene
@@ -65,6 +67,7 @@ class Panels:
     panel_corner_source: np.ndarray
     corner_panel: np.ndarray
     corner_weights: np.ndarray
+    triangle_panel: np.ndarray
 
     def to_corners(self, panel_values: np.ndarray) -> np.ndarray:
         """(T, 3, C) values at the input corners from (Q, 3, C) values at the panels' corners."""
@@ -124,13 +127,18 @@ def panels(scene: Scene, panel_size: float,
     panel_vertices = np.concatenate([alive, local[degenerate]])
     panel_source = np.concatenate([owner, np.flatnonzero(degenerate)])
     corner_panel, corner_weights = _locate(local, positions, panel_vertices, region, panel_source)
+    triangle_panel = np.full(len(corners), -1)
+    unchanged = (alive == local[owner]).all(axis=1)
+    triangle_panel[owner[unchanged]] = np.flatnonzero(unchanged)
+    triangle_panel[degenerate] = len(alive) + np.arange(degenerate.sum())
     input_corner = np.empty(len(positions), dtype=np.int64)
     input_corner[local.ravel()] = np.arange(local.size)
     used, compact = np.unique(panel_vertices, return_inverse=True)
     panel_scene = Scene(positions[used], compact.reshape(-1, 3), scene.reflectance[panel_source],
                         scene.emission[panel_source], material=scene.material[panel_source],
                         two_sided=scene.two_sided[panel_source], lights=scene.lights, sky=scene.sky)
-    return Panels(panel_scene, panel_source, input_corner[panel_vertices], corner_panel, corner_weights)
+    return Panels(panel_scene, panel_source, input_corner[panel_vertices], corner_panel, corner_weights,
+                  triangle_panel)
 
 
 def _regions(scene: Scene, normals, weld, degenerate) -> np.ndarray:
