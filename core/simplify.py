@@ -30,8 +30,9 @@ from .discretize import DEGENERATE_AREA_RATIO, connected_components, weld_corner
 from .geometry import areas_and_normals, longest_edges, triangle_corners
 from .scene import Scene
 
-# Neighbouring triangles closer to parallel than contacts.PARALLEL (1e-3 radians) are one flat
-# region: float32 rounding and near-flat modelling, not curved surfaces.
+# (Neighbouring triangles closer to parallel than contacts.PARALLEL, 1e-3 radians, are one flat
+# region: float32 rounding and near-flat modelling, not curved surfaces.)
+
 # A collapse keeps the vertex it removes within this fraction of each changed triangle's longest
 # edge of its plane (the left wall's panels: within 0.3 % of their size).
 FLATNESS = 1e-2

@@ -216,3 +216,18 @@ def test_a_bad_light_is_named(room):
     bpy.data.objects["Sun"].data.energy = -2.0
     with pytest.raises(RuntimeError, match="light 'Sun': strength must not be negative"):
         bpy.ops.radiosity.bake()
+
+
+def test_merge_flat_surfaces_reaches_the_core(room):
+    """The "Merge Flat Surfaces" setting: on (the default), the 8 x 8 floor (cells of 0.5 m) is
+    solved on fewer panels than triangles with 2 m patches and the report says so; off, every
+    triangle is a patch of its own."""
+    settings = bpy.context.scene.radiosity
+    assert settings.merge_flat
+    settings.preset, settings.patch_size = "CUSTOM", 2.0
+    assert bake_in_background() == {"FINISHED"}
+    merged = re.search(r"(\d[\d,]*) triangles merged into (\d[\d,]*) panels", settings.last_report)
+    assert merged and int(merged[2].replace(",", "")) < int(merged[1].replace(",", "")), settings.last_report
+    settings.merge_flat = False
+    assert bake_in_background() == {"FINISHED"}
+    assert "merged" not in settings.last_report, settings.last_report
