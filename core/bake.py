@@ -294,7 +294,7 @@ class _Level:
         mesh = engine.mesh
         clock = time.perf_counter()
         if self.solver == "progressive":
-            nodes_receive = engine.method == "raycast" and not __import__("os").environ.get("NODES_GATHER")
+            nodes_receive = engine.method == "raycast"
             if self.state is None:
                 self.state = solvers.ShootingState.start(
                     sources, self.node_direct if nodes_receive else np.zeros((0, self.channels)))

@@ -13,6 +13,11 @@ from core.geometry import areas_and_normals, barycentric_grid
 from core.simplify import panels
 from tests.core.scenes import box, grid, merge, quad, uniform
 
+# The unit cube's faces as (corner, u, v), facing inwards (u x v), in box()'s order.
+INWARD_FACES = (([0, 0, 0], [1, 0, 0], [0, 1, 0]), ([0, 0, 1], [0, 1, 0], [1, 0, 0]),
+                ([0, 0, 0], [0, 1, 0], [0, 0, 1]), ([1, 0, 0], [0, 0, 1], [0, 1, 0]),
+                ([0, 0, 0], [0, 0, 1], [1, 0, 0]), ([0, 1, 0], [1, 0, 0], [0, 0, 1]))
+
 
 def l_shaped_floor_and_wall(cells: int = 12) -> Scene:
     """A floor split cells x cells with one quarter left out (an L: one reflex corner), and a
@@ -106,9 +111,7 @@ def test_a_finely_split_furnace_stays_exact_when_merged(levels):
     point (it is with congruent patches): the solve runs to 1e-7 of the light unshot, which can
     move a colour by at most 1e-7 / (1 - rho) = 5e-7 of it. (The hemicube is not exact in a
     furnace of fine triangles, merged or not: its aliasing.)"""
-    faces = [grid(c, u, v, 8) for c, u, v in (([0, 0, 0], [1, 0, 0], [0, 1, 0]), ([0, 0, 1], [0, 1, 0], [1, 0, 0]),
-                                               ([0, 0, 0], [0, 1, 0], [0, 0, 1]), ([1, 0, 0], [0, 0, 1], [0, 1, 0]),
-                                               ([0, 0, 0], [0, 0, 1], [1, 0, 0]), ([0, 1, 0], [1, 0, 0], [0, 0, 1]))]  # inwards
+    faces = [grid(c, u, v, 8) for c, u, v in INWARD_FACES]
     scene = uniform(*merge(*faces), 0.8, 1.0)
     # every face emits, and emitters merge up to a quarter of the patch size: 0.5
     result = bake(scene, merge_flat=True, patch_size=2.0, refinement_levels=levels, tolerance=1e-7)
@@ -124,9 +127,7 @@ def test_a_twisted_wall_merges_and_its_vertices_stay_in_the_room():
     panels: behind them, the panels would hide the room and B = E = 1 there. B = E / (1 - rho)
     = 5 holds to 1e-3: no longer exactly, since a bulging wall hides part of the room from some
     points, which 16 rays sample (unmerged, the same room is 4.6e-4 off; merged, 1.5e-4)."""
-    faces = [grid(c, u, v, 4) for c, u, v in (([0, 0, 0], [1, 0, 0], [0, 1, 0]), ([0, 0, 1], [0, 1, 0], [1, 0, 0]),
-                                               ([0, 0, 0], [0, 1, 0], [0, 0, 1]), ([0, 0, 0], [0, 0, 1], [1, 0, 0]),
-                                               ([0, 1, 0], [1, 0, 0], [0, 0, 1]))]
+    faces = [grid(c, u, v, 4) for c, u, v in INWARD_FACES if c != [1, 0, 0]]  # all but x = 1
     twisted_vertices, twisted_triangles = grid([1, 0, 0], [0, 0, 1], [0, 1, 0], 16)
     y, z = twisted_vertices[:, 1], twisted_vertices[:, 2]
     twisted_vertices[:, 0] -= 0.004 * y * (1 - y) * z * (1 - z)
