@@ -10,7 +10,7 @@ meshing for radiosity"; Lischinski, Tampieri and Greenberg 1992) puts patch edge
 A triangle U meets triangle T's plane along a segment where U's corners lie on both sides of the
 plane, or along an edge of U lying in it (within CONTACT_TOLERANCE of T's size). Each segment
 that runs inside T cuts T along its whole line: T becomes convex
-pieces, split in fans. Triangles of T's own plane are its neighbours, not contacts.
+pieces, split in fans. Triangles parallel to T within PARALLEL are its neighbours, not contacts.
 """
 
 from __future__ import annotations

@@ -30,9 +30,6 @@ from .discretize import DEGENERATE_AREA_RATIO, connected_components, weld_corner
 from .geometry import areas_and_normals, longest_edges, triangle_corners
 from .scene import Scene
 
-# (Neighbouring triangles closer to parallel than contacts.PARALLEL, 1e-3 radians, are one flat
-# region: float32 rounding and near-flat modelling, not curved surfaces.)
-
 # A collapse keeps the vertex it removes within this fraction of each changed triangle's longest
 # edge of its plane (the left wall's panels: within 0.3 % of their size).
 FLATNESS = 1e-2
@@ -192,8 +189,7 @@ def _collapses(triangles: np.ndarray, positions: np.ndarray, normals: np.ndarray
     star_start = np.concatenate([[0], np.cumsum(star_size)])
     sizes = star_size[source]
     candidate = np.repeat(np.arange(len(source)), sizes)
-    offsets = np.arange(sizes.sum()) - np.repeat(np.cumsum(sizes) - sizes, sizes)
-    star = corner_triangle[order][star_start[source][candidate] + offsets]
+    star = corner_triangle[order][star_start[source][candidate] + spatial.ranks(sizes)]
     moved = triangles[star]
     gone = (moved == target[candidate][:, None]).any(axis=1)
     moved = np.where(moved == source[candidate][:, None], target[candidate][:, None], moved)

@@ -74,7 +74,7 @@ def _grid_pairs(boxes_a, chosen_a, boxes_b, chosen_b, corners):
         end = max(begin + 1, int(np.searchsorted(total, (total[begin - 1] if begin else 0) + PAIRS_PER_BLOCK)))
         block = slice(begin, end)
         first = np.repeat(owner_a[block], count[block])
-        second = owner_b[np.repeat(start[block], count[block]) + _ranks(count[block])]
+        second = owner_b[np.repeat(start[block], count[block]) + ranks(count[block])]
         touch = _boxes_touch(low_a, high_a, first, low_b, high_b, second)
         found.append(np.unique(first[touch] * len(low_b) + second[touch]))
         begin = end
@@ -104,12 +104,12 @@ def _listings(first: np.ndarray, spans: np.ndarray):
     """(L, 3) grid cells of each box, and (L,) the box of each."""
     counts = spans.prod(axis=1)
     owner = np.repeat(np.arange(len(first)), counts)
-    offset, span = _ranks(counts), spans[owner]
+    offset, span = ranks(counts), spans[owner]
     cells = first[owner] + np.stack([offset // (span[:, 1] * span[:, 2]), (offset // span[:, 2]) % span[:, 1],
                                      offset % span[:, 2]], axis=1)
     return cells, owner
 
 
-def _ranks(counts: np.ndarray) -> np.ndarray:
+def ranks(counts: np.ndarray) -> np.ndarray:
     """0, 1, ..., counts[0] - 1, 0, 1, ..., counts[1] - 1, ...: the rank within each run."""
     return np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
