@@ -17,7 +17,8 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 from . import contacts
-from .geometry import areas_and_normals, barycentric_grid, longest_edges, triangle_corners
+from .geometry import areas_and_normals, longest_edges, subdivide, triangle_corners
+from .raycast import light_divisions
 from .scene import Scene
 
 if TYPE_CHECKING:
@@ -33,6 +34,10 @@ WELD_TOLERANCE = 1e-9
 # vertex itself, a surface touching it is seen exactly edge-on and its form factor is undefined.
 NODE_INSET = 1e-3
 MAX_PATCHES = 4_000_000
+# An emitter (a connected set of emitting triangles) is split finer than the patch size until it
+# has raycast.MIN_LIGHT_PIECES patches, unless the emitters' patches would then be more than this
+# share of all (many small lights): the split is bounded by the scene, not by its number of lights.
+MAX_EMITTER_SHARE = 0.25
 
 
 @dataclass(frozen=True)
@@ -121,6 +126,8 @@ def _patches(scene: Scene, patch_size: float | None, cut_contacts: bool) -> dict
     piece_degenerate = degenerate[piece_triangle] | (
         areas_and_normals(pieces)[0] <= DEGENERATE_AREA_RATIO * longest_edges(pieces) ** 2)
     divisions = _divisions(pieces, piece_degenerate, patch_size)
+    if patch_size is not None:
+        divisions *= _emitter_divisions(scene, corners, degenerate, piece_triangle, divisions)
     front = _split_triangles(pieces, divisions)
     patch_triangle = piece_triangle[front["triangle"]]
     cut = np.bincount(piece_triangle, minlength=len(corners))[piece_triangle] > 1
@@ -167,15 +174,39 @@ def _divisions(corners: np.ndarray, degenerate: np.ndarray, patch_size: float | 
     return divisions
 
 
+def _emitter_divisions(scene: Scene, corners: np.ndarray, degenerate: np.ndarray, piece_triangle: np.ndarray,
+                       divisions: np.ndarray) -> np.ndarray:
+    """(pieces,) int: how many times more to divide each piece's edges: for the pieces of an
+    emitter that ``divisions`` make n patches, raycast.light_divisions(n); 1 elsewhere, and 1
+    everywhere if the emitters' patches would be more than MAX_EMITTER_SHARE of all. An emitter
+    is a connected set of emitting triangles (sharing a vertex)."""
+    factor = np.ones(len(piece_triangle), dtype=np.int64)
+    emitting = np.flatnonzero(scene.emission.any(axis=1) & ~degenerate)
+    if len(emitting) == 0:
+        return factor
+    weld = weld_corners(corners[emitting], scene.extent)
+    count = len(emitting)
+    # triangles and vertices as one graph: a triangle joined to its corners' vertices
+    links = np.stack([np.repeat(np.arange(count), 3), count + weld.ravel()], axis=1)
+    emitter = np.full(len(corners), -1)
+    emitter[emitting] = connected_components(count + weld.max() + 1, links)[:count]
+    piece_emitter = emitter[piece_triangle]
+    chosen = np.flatnonzero(piece_emitter >= 0)
+    patches = np.bincount(piece_emitter[chosen], weights=divisions[chosen] ** 2.0, minlength=count)
+    factor[chosen] = light_divisions(patches)[piece_emitter[chosen]]
+    split = divisions.astype(np.float64) ** 2 * factor**2
+    if split[chosen].sum() > MAX_EMITTER_SHARE * split.sum():
+        factor[:] = 1
+    return factor
+
+
 def _split_triangles(corners: np.ndarray, divisions: np.ndarray) -> dict[str, np.ndarray]:
     """Regular split of each triangle into divisions**2 sub-triangles (grouped by count)."""
     parts, parents = [], []
     for n in np.unique(divisions[divisions > 0]):
         chosen = np.flatnonzero(divisions == n)
-        weights, cells = barycentric_grid(int(n))
-        points = np.einsum("gb,tbx->tgx", weights, corners[chosen])  # (k, G, 3)
-        parts.append(points[:, cells].reshape(-1, 3, 3))
-        parents.append(np.repeat(chosen, len(cells)))
+        parts.append(subdivide(corners[chosen], int(n)))
+        parents.append(np.repeat(chosen, n * n))
     order = np.argsort(np.concatenate(parents), kind="stable")
     return {"corners": np.concatenate(parts)[order], "triangle": np.concatenate(parents)[order]}
 

@@ -61,3 +61,11 @@ def barycentric_grid(divisions: int) -> tuple[np.ndarray, np.ndarray]:
             if ii + jj + 2 <= n:
                 cells.append((index[ii + 1, jj], index[ii + 1, jj + 1], index[ii, jj + 1]))
     return weights, np.array(cells, dtype=np.int64)
+
+
+def subdivide(corners: np.ndarray, divisions: int) -> np.ndarray:
+    """(T * divisions**2, 3, 3): each triangle of ``corners`` (T, 3, 3) split regularly
+    (``barycentric_grid``), its sub-triangles consecutive."""
+    weights, cells = barycentric_grid(divisions)
+    points = np.einsum("gb,tbx->tgx", weights, corners)  # (T, G, 3)
+    return points[:, cells].reshape(-1, 3, 3)

@@ -28,8 +28,8 @@ from typing import Callable, Iterable
 import numpy as np
 
 from . import parallel
-from .geometry import areas_and_normals, tangent_frames
-from .raycast import RayCaster, stratified_samples
+from .geometry import areas_and_normals, subdivide, tangent_frames
+from .raycast import RayCaster, light_divisions, stratified_samples
 from .visibility import RAY_EPSILON, Visibility
 
 # Evaluation points per block of work (each with up to a few thousand rays).
@@ -38,6 +38,8 @@ POINTS_PER_BLOCK = 1024
 # small share s of the hemisphere, and n stratified directions see it to about sqrt(s / n):
 # 16 x 16 = 256 directions keep the blotches of a 5 % window under 1.5 % of its light.
 SKY_RAYS_PER_RAY = 16
+# The area lights' pieces (raycast.light_divisions) together: each costs its rays at every point.
+MAX_AREA_LIGHT_PIECES = 256
 
 
 def _vector(name: str, value, nonnegative: bool = False) -> np.ndarray:
@@ -195,8 +197,10 @@ def check_lights(lights: Iterable) -> tuple:
 class DirectLighting:
     """G = H / pi from the lights and the sky at points, with shadows by rays.
 
-    rays : light samples per area light triangle (as the bake's rays per form factor; the sky
-        gets SKY_RAYS_PER_RAY times as many directions per point); seed fixes them.
+    rays : light samples per piece of an area light (as the bake's rays per form factor; the sky
+        gets SKY_RAYS_PER_RAY times as many directions per point); seed fixes them. An area light
+        of few triangles is split into at least raycast.MIN_LIGHT_PIECES pieces (its penumbrae
+        need them), while all of them together stay within MAX_AREA_LIGHT_PIECES.
     """
 
     def __init__(self, lights: tuple, sky: np.ndarray, visibility: Visibility, rays: int, seed: int) -> None:
@@ -206,11 +210,20 @@ class DirectLighting:
         self.rays = rays
         self.seed = seed
         self._area = []
-        for index, light in enumerate(lights):
-            if isinstance(light, AreaLight):
-                areas, normals = areas_and_normals(light.triangles)
-                caster = RayCaster(light.triangles, normals, areas, visibility, rays, seed + 1 + index)
-                self._area.append((light, caster))
+        area_lights = [(index, light) for index, light in enumerate(lights) if isinstance(light, AreaLight)]
+        divisions = light_divisions([len(light.triangles) for _, light in area_lights])
+        if sum(len(light.triangles) * n * n for (_, light), n in zip(area_lights, divisions)) > MAX_AREA_LIGHT_PIECES:
+            divisions[:] = 1
+        for (index, light), n in zip(area_lights, divisions):
+            pieces = subdivide(light.triangles, int(n))
+            areas, normals = areas_and_normals(pieces)
+            caster = RayCaster(pieces, normals, areas, visibility, rays, seed + 1 + index)
+            self._area.append((light, pieces, caster))
+
+    @property
+    def light_pieces(self) -> int:
+        """The pieces the area lights are sampled from, all together."""
+        return sum(len(pieces) for _, pieces, _ in self._area)
 
     @property
     def empty(self) -> bool:
@@ -274,8 +287,8 @@ class DirectLighting:
         """Area lights (kernel-weighted shadow rays to stratified samples) and the sky."""
         result = np.zeros((len(points), 3))
         count = len(points)
-        for light, caster in self._area:
-            sources = len(light.triangles)
+        for light, pieces, caster in self._area:
+            sources = len(pieces)
             factors = caster.form_factors(points, normals, np.repeat(np.arange(count), sources),
                                           np.tile(np.arange(sources), count))
             result += factors.reshape(count, sources).sum(axis=1)[:, None] * light.radiance
