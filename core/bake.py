@@ -31,8 +31,8 @@ class BakeSettings:
         share a vertex colour.
     hemicube_resolution : pixels across the hemicube's top face (even).
     rays_per_form_factor : visibility rays per point-to-patch form factor (a perfect square);
-        also the shadow rays per piece of an area light (at least 16 pieces each: ``lights``) and
-        the sky directions per point.
+        also the shadow rays per piece of an area light (16 pieces or more, within a bound:
+        ``lights``) and the sky directions per point.
     tolerance : stop when the estimated fraction of light not yet distributed (progressive) or
         the bound on the relative error (Jacobi, Gauss-Seidel) is below this.
     ambient : progressive only: add the ambient estimate of the light not yet shot.

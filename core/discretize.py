@@ -35,8 +35,9 @@ WELD_TOLERANCE = 1e-9
 NODE_INSET = 1e-3
 MAX_PATCHES = 4_000_000
 # An emitter (a connected set of emitting triangles) is split finer than the patch size until it
-# has raycast.MIN_LIGHT_PIECES patches, unless the emitters' patches would then be more than this
-# share of all (many small lights): the split is bounded by the scene, not by its number of lights.
+# has raycast.MIN_LIGHT_PIECES patches, unless the emitters so split would then be more than this
+# share of the patches (many small lights, or a scene that is mostly light): the split is bounded
+# by the scene, not by its number of lights.
 MAX_EMITTER_SHARE = 0.25
 
 
@@ -128,6 +129,7 @@ def _patches(scene: Scene, patch_size: float | None, cut_contacts: bool) -> dict
     divisions = _divisions(pieces, piece_degenerate, patch_size)
     if patch_size is not None:
         divisions *= _emitter_divisions(scene, corners, degenerate, piece_triangle, divisions)
+    _check_patch_count(divisions, patch_size)
     front = _split_triangles(pieces, divisions)
     patch_triangle = piece_triangle[front["triangle"]]
     cut = np.bincount(piece_triangle, minlength=len(corners))[piece_triangle] > 1
@@ -165,21 +167,24 @@ def _divisions(corners: np.ndarray, degenerate: np.ndarray, patch_size: float | 
             raise ValueError(f"patch_size must be a positive length, got {patch_size}")
         divisions = np.maximum(1, np.ceil(longest_edges(corners) / patch_size)).astype(np.int64)
     divisions[degenerate] = 0
+    return divisions
+
+
+def _check_patch_count(divisions: np.ndarray, patch_size: float | None) -> None:
     total = int((divisions.astype(np.float64) ** 2).sum())
     if total > MAX_PATCHES:
         raise ValueError(
             f"patch_size {patch_size:g} would make {total:,} patches (at most {MAX_PATCHES:,}); "
             "choose a larger patch size"
         )
-    return divisions
 
 
 def _emitter_divisions(scene: Scene, corners: np.ndarray, degenerate: np.ndarray, piece_triangle: np.ndarray,
                        divisions: np.ndarray) -> np.ndarray:
     """(pieces,) int: how many times more to divide each piece's edges: for the pieces of an
     emitter that ``divisions`` make n patches, raycast.light_divisions(n); 1 elsewhere, and 1
-    everywhere if the emitters' patches would be more than MAX_EMITTER_SHARE of all. An emitter
-    is a connected set of emitting triangles (sharing a vertex)."""
+    everywhere if the emitters so split would then be more than MAX_EMITTER_SHARE of the
+    patches. An emitter is a connected set of emitting triangles (sharing a vertex)."""
     factor = np.ones(len(piece_triangle), dtype=np.int64)
     emitting = np.flatnonzero(scene.emission.any(axis=1) & ~degenerate)
     if len(emitting) == 0:
@@ -192,10 +197,10 @@ def _emitter_divisions(scene: Scene, corners: np.ndarray, degenerate: np.ndarray
     emitter[emitting] = connected_components(count + weld.max() + 1, links)[:count]
     piece_emitter = emitter[piece_triangle]
     chosen = np.flatnonzero(piece_emitter >= 0)
-    patches = np.bincount(piece_emitter[chosen], weights=divisions[chosen] ** 2.0, minlength=count)
-    factor[chosen] = light_divisions(patches)[piece_emitter[chosen]]
-    split = divisions.astype(np.float64) ** 2 * factor**2
-    if split[chosen].sum() > MAX_EMITTER_SHARE * split.sum():
+    emitter_patches = np.bincount(piece_emitter[chosen], weights=divisions[chosen] ** 2.0, minlength=count)
+    factor[chosen] = light_divisions(emitter_patches)[piece_emitter[chosen]]
+    patches = divisions.astype(np.float64) ** 2 * factor**2
+    if patches[factor > 1].sum() > MAX_EMITTER_SHARE * patches.sum():
         factor[:] = 1
     return factor
 

@@ -38,8 +38,9 @@ POINTS_PER_BLOCK = 1024
 # small share s of the hemisphere, and n stratified directions see it to about sqrt(s / n):
 # 16 x 16 = 256 directions keep the blotches of a 5 % window under 1.5 % of its light.
 SKY_RAYS_PER_RAY = 16
-# The area lights' pieces (raycast.light_divisions) together: each costs its rays at every point.
-MAX_AREA_LIGHT_PIECES = 256
+# The pieces that splitting the area lights (raycast.light_divisions) may add, all lights together:
+# each piece costs its rays at every point.
+MAX_ADDED_LIGHT_PIECES = 256
 
 
 def _vector(name: str, value, nonnegative: bool = False) -> np.ndarray:
@@ -200,7 +201,7 @@ class DirectLighting:
     rays : light samples per piece of an area light (as the bake's rays per form factor; the sky
         gets SKY_RAYS_PER_RAY times as many directions per point); seed fixes them. An area light
         of few triangles is split into at least raycast.MIN_LIGHT_PIECES pieces (its penumbrae
-        need them), while all of them together stay within MAX_AREA_LIGHT_PIECES.
+        need them), unless the splits of all of them would add more than MAX_ADDED_LIGHT_PIECES.
     """
 
     def __init__(self, lights: tuple, sky: np.ndarray, visibility: Visibility, rays: int, seed: int) -> None:
@@ -212,7 +213,8 @@ class DirectLighting:
         self._area = []
         area_lights = [(index, light) for index, light in enumerate(lights) if isinstance(light, AreaLight)]
         divisions = light_divisions([len(light.triangles) for _, light in area_lights])
-        if sum(len(light.triangles) * n * n for (_, light), n in zip(area_lights, divisions)) > MAX_AREA_LIGHT_PIECES:
+        if sum(len(light.triangles) * (n * n - 1) for (_, light), n in zip(area_lights, divisions)) \
+                > MAX_ADDED_LIGHT_PIECES:
             divisions[:] = 1
         for (index, light), n in zip(area_lights, divisions):
             pieces = subdivide(light.triangles, int(n))
