@@ -26,6 +26,8 @@ from tests.core.scenes import grid, merge, quad
 
 HEIGHT, LIGHT, BLOCKER, FLOOR = 2.0, 0.25, 0.1, 2.0  # half-widths
 RHO, RADIANCE = 0.5, 10.0
+# a light of 2 triangles, one patch each, is split ceil(sqrt(MIN_LIGHT_PIECES / 2)) times per edge
+SQUARE_SPLIT = 2 * int(np.ceil(np.sqrt(MIN_LIGHT_PIECES / 2))) ** 2  # 18
 
 
 def corner_factor(x, y, height):
@@ -104,9 +106,8 @@ def test_a_small_emitter_is_split_into_enough_patches_a_large_one_is_not():
     emission = np.zeros((6, 3))
     emission[2:] = 1.0
     mesh = discretize(Scene(vertices, triangles, np.full((6, 3), 0.5), emission), patch_size=1.0)
-    divisions = int(np.ceil(np.sqrt(MIN_LIGHT_PIECES / 2)))  # 3 per edge: 18 patches
     patches = np.bincount(mesh.patch_triangle, minlength=6)
-    np.testing.assert_array_equal(patches, [36, 36, 36, 36, divisions**2, divisions**2])
+    np.testing.assert_array_equal(patches, [36, 36, 36, 36, SQUARE_SPLIT // 2, SQUARE_SPLIT // 2])
 
 
 def small_lights(count: int) -> tuple[Scene, int]:
@@ -116,17 +117,17 @@ def small_lights(count: int) -> tuple[Scene, int]:
     vertices, triangles = merge(floor, *lights)
     emission = np.zeros((len(triangles), 3))
     emission[2:] = 1.0
-    return Scene(vertices, triangles, np.full((len(triangles), 3), 0.5), emission), 2 * 29**2  # diagonal 28.3
+    floor_patches = 2 * 29**2  # its diagonal, 28.3, in 29 divisions
+    return Scene(vertices, triangles, np.full((len(triangles), 3), 0.5), emission), floor_patches
 
 
 def test_many_small_emitters_are_split_within_a_bound():
     """Each light would grow from 2 patches to 18; the lights so split may be MAX_EMITTER_SHARE of
     the patches: the most lights that fit are split, one more and none is."""
-    split = 2 * int(np.ceil(np.sqrt(MIN_LIGHT_PIECES / 2))) ** 2
     _, floor_patches = small_lights(1)
-    fits = int(MAX_EMITTER_SHARE * floor_patches / ((1 - MAX_EMITTER_SHARE) * split))
+    fits = int(MAX_EMITTER_SHARE * floor_patches / ((1 - MAX_EMITTER_SHARE) * SQUARE_SPLIT))
     scene, _ = small_lights(fits)
-    assert discretize(scene, patch_size=1.0).patch_count == floor_patches + fits * split
+    assert discretize(scene, patch_size=1.0).patch_count == floor_patches + fits * SQUARE_SPLIT
     scene, _ = small_lights(fits + 1)
     assert discretize(scene, patch_size=1.0).patch_count == floor_patches + (fits + 1) * 2
 
@@ -135,12 +136,12 @@ def test_area_lights_are_split_within_a_bound():
     vertices, triangles = light_quad()
     square = AreaLight(vertices[triangles], np.ones(3))
     visibility = Visibility(vertices[triangles])
-    split = 2 * int(np.ceil(np.sqrt(MIN_LIGHT_PIECES / 2))) ** 2  # 18
-    fits = MAX_ADDED_LIGHT_PIECES // (split - 2)
-    assert DirectLighting((square,) * fits, np.zeros(3), visibility, 16, 0).light_pieces == fits * split
+    fits = MAX_ADDED_LIGHT_PIECES // (SQUARE_SPLIT - 2)
+    assert DirectLighting((square,) * fits, np.zeros(3), visibility, 16, 0).light_pieces == fits * SQUARE_SPLIT
     assert DirectLighting((square,) * (fits + 1), np.zeros(3), visibility, 16, 0).light_pieces == (fits + 1) * 2
     # a disk light is a fan of enough triangles already: it adds nothing, and the square is split
     disk = area_light("DISK", 0.5, 0.5, np.eye(4), np.ones(3))
     assert len(disk.triangles) >= MIN_LIGHT_PIECES
     lights = (disk,) * 20 + (square,)
-    assert DirectLighting(lights, np.zeros(3), visibility, 16, 0).light_pieces == 20 * len(disk.triangles) + split
+    pieces = DirectLighting(lights, np.zeros(3), visibility, 16, 0).light_pieces
+    assert pieces == 20 * len(disk.triangles) + SQUARE_SPLIT
