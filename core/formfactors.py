@@ -72,6 +72,22 @@ class FormFactorEngine:
         pair)."""
         return self._point_raycaster.form_factors(points, normals, receivers, sources)
 
+    def emitted_light(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """(m, 3) sum_e F(point -> e) E_e over the emitting patches e: the light of the first
+        shot of each emitter at points (m, 3) facing normals (m, 3)."""
+        mesh = self.mesh
+        emitters = np.flatnonzero(mesh.patch_emission.any(axis=1))
+        if len(emitters) == 0 or len(points) == 0:
+            return np.zeros((len(points), mesh.patch_emission.shape[1]))
+        receivers = np.repeat(np.arange(len(points)), len(emitters))
+        sources = np.tile(emitters, len(points))
+        size = PAIRS_PER_BLOCK
+        factors = np.concatenate(list(parallel.map_ordered(
+            lambda start: self.point_form_factors(points, normals, receivers[start:start + size],
+                                                  sources[start:start + size]),
+            range(0, len(receivers), size))))
+        return factors.reshape(len(points), len(emitters)) @ mesh.patch_emission[emitters]
+
     @cached_property
     def _point_raycaster(self) -> raycast.RayCaster:
         if self.raycaster is not None:

@@ -69,3 +69,13 @@ def subdivide(corners: np.ndarray, divisions: int) -> np.ndarray:
     weights, cells = barycentric_grid(divisions)
     points = np.einsum("gb,tbx->tgx", weights, corners)  # (T, G, 3)
     return points[:, cells].reshape(-1, 3, 3)
+
+
+def barycentric(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(K, 3) barycentric coordinates of points (K, 3) in the planes of triangles (K, 3, 3)."""
+    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    normal = np.cross(b - a, c - a)
+    total = (normal ** 2).sum(axis=1)
+    weight_a = np.einsum("kx,kx->k", np.cross(c - b, points - b), normal) / total
+    weight_b = np.einsum("kx,kx->k", np.cross(a - c, points - c), normal) / total
+    return np.stack([weight_a, weight_b, 1 - weight_a - weight_b], axis=1)

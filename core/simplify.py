@@ -27,7 +27,7 @@ import numpy as np
 
 from . import contacts, spatial
 from .discretize import DEGENERATE_AREA_RATIO, connected_components, weld_corners
-from .geometry import areas_and_normals, longest_edges, triangle_corners
+from .geometry import areas_and_normals, barycentric, longest_edges, triangle_corners
 from .scene import Scene
 
 # A collapse keeps the vertex it removes within this fraction of each changed triangle's longest
@@ -284,7 +284,7 @@ def _locate(local, positions, panel_vertices, region, panel_source):
                                                              panel_corners.max(axis=1) + pad)
         same = region[panel_source[found_panel]] == vertex_region[removed][found_point]
         found_point, found_panel = found_point[same], found_panel[same]
-        weights = _barycentric(points[found_point], panel_corners[found_panel])
+        weights = barycentric(points[found_point], panel_corners[found_panel])
         order = np.lexsort((-weights.min(axis=1), found_point))  # per point, the panel it is most inside
         best = order[np.unique(found_point[order], return_index=True)[1]]
         if len(best) != len(removed):
@@ -293,13 +293,3 @@ def _locate(local, positions, panel_vertices, region, panel_source):
         vertex_panel[removed[found_point[best]]] = found_panel[best]
         vertex_weights[removed[found_point[best]]] = inside / inside.sum(axis=1, keepdims=True)
     return vertex_panel[local], vertex_weights[local]
-
-
-def _barycentric(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """(K, 3) barycentric coordinates of points (K, 3) in the planes of triangles (K, 3, 3)."""
-    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
-    normal = np.cross(b - a, c - a)
-    total = (normal ** 2).sum(axis=1)
-    weight_a = np.einsum("kx,kx->k", np.cross(c - b, points - b), normal) / total
-    weight_b = np.einsum("kx,kx->k", np.cross(a - c, points - c), normal) / total
-    return np.stack([weight_a, weight_b, 1 - weight_a - weight_b], axis=1)
