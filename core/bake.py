@@ -207,15 +207,15 @@ def bake(
         point_lighting = engine.gather(near.points, near.normals, radiosity, lambda f: stages.report(f / 2))
         direct_light = direct.at_points(near.points, near.normals, lambda f: stages.report(0.5 + f / 2))
         point_lighting += direct_light[:, :channels]
-        near, wedges, wedge_pairs = touching.read_touching(
+        near, direct_detail, detailed_pairs = touching.read_touching(
             near, mesh, lambda points, normals: engine.emitted_light(points, normals)
-            + direct.at_points(points, normals, lambda _fraction: None), channels)
-        node_lighting = node_lighting + wedges[: mesh.node_count]
-        point_lighting = point_lighting + wedges[mesh.node_count:]
+            + direct.lights_at(points, normals), channels)
+        node_lighting = node_lighting + direct_detail[: mesh.node_count]
+        point_lighting = point_lighting + direct_detail[mesh.node_count:]
         lighting, iterations = nearfield.corrected_lighting(near, mesh, radiosity, node_lighting, point_lighting)
         node_lighting = lighting[: mesh.node_count]
         near_stats = {"pairs": near.pair_count, "interpolation_nodes": len(near.points), "iterations": iterations,
-                      "wedge_pairs": wedge_pairs}
+                      "direct_detail_pairs": detailed_pairs}
         colors = mesh.node_emission[:, :channels] + mesh.node_reflectance[:, :channels] * node_lighting
         # ray casting's discretisation estimate, tighter than the change in the last level; the
         # hemicube's aliasing at the nodes is not in it (docs/methods.md)

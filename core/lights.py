@@ -237,6 +237,13 @@ class DirectLighting:
             return np.zeros((len(points), 3))
         return self._in_blocks(points, normals, self._point_block, report)
 
+    def lights_at(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """(m, 3) G at points from the lights alone, without the sky (as ``at_points`` has it)."""
+        if not self.lights:
+            return np.zeros((len(points), 3))
+        return self._in_blocks(points, normals, lambda block, block_normals, _first: self._sharp(block, block_normals)
+                               + self._area_lights(block, block_normals), lambda _fraction: None)
+
     def patch_means(self, corners: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
         """(P, 3) G over patches (P, 3, 3): the mean over ``rays`` stratified points of each
         patch for point, spot and sun lights (their shadows are sharp); at the centroid for area
@@ -286,7 +293,14 @@ class DirectLighting:
         return result
 
     def _smooth(self, points, normals, first) -> np.ndarray:
-        """Area lights (kernel-weighted shadow rays to stratified samples) and the sky."""
+        """Area lights and the sky."""
+        result = self._area_lights(points, normals)
+        if self.sky.any():
+            result += self._open_sky(points, normals, first)[:, None] * self.sky
+        return result
+
+    def _area_lights(self, points, normals) -> np.ndarray:
+        """Area lights at points: kernel-weighted shadow rays to stratified samples."""
         result = np.zeros((len(points), 3))
         count = len(points)
         for light, pieces, caster in self._area:
@@ -294,8 +308,6 @@ class DirectLighting:
             factors = caster.form_factors(points, normals, np.repeat(np.arange(count), sources),
                                           np.tile(np.arange(sources), count))
             result += factors.reshape(count, sources).sum(axis=1)[:, None] * light.radiance
-        if self.sky.any():
-            result += self._open_sky(points, normals, first)[:, None] * self.sky
         return result
 
     def _open_sky(self, points, normals, first) -> np.ndarray:

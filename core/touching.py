@@ -20,9 +20,11 @@ factor is exact in the radius, and its middle x_j has barycentric coordinates la
 
     reading point lambda = sum_j w_j lambda(x_j)    (replacing the near field's)
 
-and where the direct light D (G of the lights and emitting patches) at PROBE_DIRECTIONS x
-PROBE_SHELLS of the cells differs from the linear reading of its values D_i at q's corners by
-more than VARIES of the largest, the direct light is read cell by cell (w_j >= MIN_SHARE):
+and where the direct light D (G of the lights but the sky, and of the emitting patches) at
+PROBE_DIRECTIONS x PROBE_SHELLS of the cells differs from the linear reading of its values D_i
+at q's corners by more than VARIES of the largest, the direct light is read cell by cell
+(w_j >= MIN_SHARE; the first MAX_POINTS cells of the first MAX_PROBED_PAIRS pairs, the largest
+form factors first):
 
     G_n += F(n, q) rho_q sum_j w_j (D(x_j) - sum_i lambda_i(x_j) D_i).
 
@@ -56,9 +58,12 @@ COARSE_GROUP = 4
 PROBE_DIRECTIONS = 8
 PROBE_SHELLS = (2, 5)
 MIN_SHARE = 0.002
-# Quadrature points per bake (each costs a form factor per light piece): past it, the pairs with
-# the largest form factors are kept.
+# Cells whose direct light is read, per bake (each costs a form factor per light piece or light).
 MAX_POINTS = 100_000
+# Pairs whose direct light is probed (PROBE_DIRECTIONS x PROBE_SHELLS points each, and their
+# corners), the largest form factors first; the others keep the linear reading of it.
+MAX_PROBED_PAIRS = 8192
+PAIRS_PER_BLOCK = 4096
 
 DirectLight = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
@@ -69,38 +74,45 @@ def read_touching(near: NearField, mesh: Discretization, direct: DirectLight,
     the change (N + M, C) of the lighting G of the output nodes, then of the interpolation nodes,
     for the detail of the direct light, and the number of pairs it changes;
     ``direct(points, normals)`` gives (m, >= C) the direct light G at points (m, 3) facing unit
-    normals (m, 3)."""
+    normals (m, 3). Pairs are taken PAIRS_PER_BLOCK at a time (the cells of one pair take 7 kB)."""
     points = np.concatenate([mesh.node_points, near.points])
     normals = np.concatenate([mesh.node_normals, near.normals])
-    correction = np.zeros((len(points), channels))
     triangles = mesh.patch_corners[near.patch]
     distance = np.linalg.norm(triangles - points[near.receiver][:, None], axis=2).min(axis=1)
-    pairs = np.flatnonzero((distance <= TOUCH * longest_edges(triangles)) & (near.form_factor >= MIN_FORM_FACTOR))
-    if len(pairs) == 0:
-        return near, correction, 0
-    receivers, patches, triangles = near.receiver[pairs], near.patch[pairs], triangles[pairs]
-    middles, shares = _polar_cells(points[receivers], normals[receivers], triangles)
-    where = barycentric(middles.reshape(-1, 3), np.repeat(triangles, middles.shape[1], axis=0))
-    where = where.reshape(len(pairs), -1, 3)  # (k, m, 3) barycentric
+    touching = np.flatnonzero((distance <= TOUCH * longest_edges(triangles))
+                              & (near.form_factor >= MIN_FORM_FACTOR))
+    touching = touching[np.argsort(-near.form_factor[touching], kind="stable")]  # the largest first
     weights = near.weights.copy()
-    weights[pairs] = np.einsum("km,kmb->kb", shares, where)
+    detail = []  # per block: (pair, cell share, cell middle, its barycentric coordinates, corner light)
+    for start in range(0, len(touching), PAIRS_PER_BLOCK):
+        pairs = touching[start:start + PAIRS_PER_BLOCK]
+        receivers, patch_corners = near.receiver[pairs], triangles[pairs]
+        middles, shares = _polar_cells(points[receivers], normals[receivers], patch_corners)
+        where = barycentric(middles.reshape(-1, 3), np.repeat(patch_corners, middles.shape[1], axis=0))
+        where = where.reshape(len(pairs), -1, 3)
+        weights[pairs] = np.einsum("km,kmb->kb", shares, where)
+        if start >= MAX_PROBED_PAIRS:
+            continue
+        corner_light = _corner_light(near, pairs, points, normals, direct, channels)
+        misread = _misread(middles, where, shares, mesh.patch_normals[near.patch[pairs]], corner_light, direct,
+                           channels)
+        rows, cells = np.nonzero((shares >= MIN_SHARE) & misread[:, None])
+        detail.append((pairs[rows], shares[rows, cells], middles[rows, cells], where[rows, cells], corner_light[rows]))
     near = replace(near, weights=weights)
-
-    corner_light = _corner_light(near, pairs, points, normals, direct, channels)
-    kept = (shares >= MIN_SHARE) & _misread(middles, where, shares, mesh.patch_normals[patches], corner_light,
-                                            direct, channels)[:, None]
-    order = np.argsort(-near.form_factor[pairs], kind="stable")
-    kept[order[np.cumsum(kept.sum(axis=1)[order]) > MAX_POINTS]] = False
-    rows, cells = np.nonzero(kept)
-    if len(rows) == 0:
+    correction = np.zeros((len(points), channels))
+    if not detail or not sum(len(part[0]) for part in detail):
         return near, correction, 0
-    light = direct(middles[rows, cells], mesh.patch_normals[patches[rows]])[:, :channels]
-    linear = np.einsum("kb,kbc->kc", where[rows, cells], corner_light[rows])
-    weight = near.form_factor[pairs][:, None] * mesh.patch_reflectance[patches, :channels]
-    change = shares[rows, cells][:, None] * weight[rows] * (light - linear)
+    pair, share, middle, where, corner_light = (np.concatenate(part) for part in zip(*detail))
+    # the pairs come largest form factor first: past MAX_POINTS cells, the rest keep the linear reading
+    pair, share, middle, where, corner_light = (part[:MAX_POINTS]
+                                                for part in (pair, share, middle, where, corner_light))
+    patch = near.patch[pair]
+    light = direct(middle, mesh.patch_normals[patch])[:, :channels]
+    linear = np.einsum("kb,kbc->kc", where, corner_light)
+    change = (share * near.form_factor[pair])[:, None] * mesh.patch_reflectance[patch, :channels] * (light - linear)
     for channel in range(channels):
-        correction[:, channel] = np.bincount(receivers[rows], change[:, channel], len(points))
-    return near, correction, int(len(np.unique(rows)))
+        correction[:, channel] = np.bincount(near.receiver[pair], change[:, channel], len(points))
+    return near, correction, int(len(np.unique(pair)))
 
 
 def _corner_light(near: NearField, pairs: np.ndarray, points, normals, direct: DirectLight,
