@@ -13,32 +13,33 @@ reference 0.56 % from it (docs/cycles.md); in the cube room of tests/core/test_e
 the first alone held most of the error at a quarter of the extent (1.65 % -> 0.64 %).
 
 For each near pair (n, q) where n touches q (a corner of q within TOUCH of q's longest edge) and
-F(n, q) >= MIN_FORM_FACTOR, q is cut into polar cells about n's foot f on q (clamped into q):
-ANGLES directions, each cut at SHELL_RADII heights of n over q up to q's edge (the cells of
-COARSE_GROUP directions merged beyond FINE_SHELLS). Each cell's share w_j of the unoccluded form
-factor is exact in the radius, and its middle x_j has barycentric coordinates lambda(x_j) in q:
+F(n, q) >= MIN_FORM_FACTOR, q is taken in polar coordinates about n's foot f on q (clamped into
+q), ANGLES directions each to where it leaves q (``_Polar``). The reading point is the
+form-factor-weighted centre of q, exact in the radius:
 
-    reading point lambda = sum_j w_j lambda(x_j)    (replacing the near field's)
+    lambda = barycentric(f + sum_theta M1(theta) e(theta) / sum_theta M0(theta))
 
-and where the direct light D (G of the lights but the sky, and of the emitting patches) at
-PROBE_DIRECTIONS x PROBE_SHELLS of the cells differs from the linear reading of its values D_i
-at q's corners by more than VARIES of the largest, the direct light is read cell by cell
-(w_j >= MIN_SHARE; the first MAX_POINTS cells of the first MAX_PROBED_PAIRS pairs, the largest
-form factors first):
+(M0, M1 the kernel's zeroth and first moments along each direction), replacing the near field's.
+Where the direct light D (G of the lights but the sky, and of the emitting patches) at
+PROBE_DIRECTIONS x PROBE_SHELLS points about the foot differs from the linear reading of its
+values D_i at q's corners by more than VARIES of the largest, it is read on the polar cells
+(each direction cut at SHELL_RADII heights of n over q) one by one, with w_j each cell's share of
+the form factor and x_j its middle:
 
-    G_n += F(n, q) rho_q sum_j w_j (D(x_j) - sum_i lambda_i(x_j) D_i).
+    G_n += F(n, q) rho_q sum_j w_j (D(x_j) - sum_i lambda_i(x_j) D_i)
 
-The indirect light across q is left to the linear reading.
+over the cells with w_j >= MIN_SHARE, for the first MAX_PROBED_PAIRS pairs and MAX_POINTS cells,
+the largest form factors first (elsewhere the linear reading of D stands). The indirect light
+across q is left to the linear reading.
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
 
-from .analytic import point_to_triangle
 from .discretize import Discretization
 from .geometry import areas_and_normals, barycentric, longest_edges, tangent_frames
 from .nearfield import NearField
@@ -59,10 +60,10 @@ PROBE_DIRECTIONS = 8
 PROBE_SHELLS = (2, 5)
 MIN_SHARE = 0.002
 # Cells whose direct light is read, per bake (each costs a form factor per light piece or light).
-MAX_POINTS = 100_000
+MAX_POINTS = 25_000
 # Pairs whose direct light is probed (PROBE_DIRECTIONS x PROBE_SHELLS points each, and their
 # corners), the largest form factors first; the others keep the linear reading of it.
-MAX_PROBED_PAIRS = 8192
+MAX_PROBED_PAIRS = 2048
 PAIRS_PER_BLOCK = 4096
 
 DirectLight = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -70,7 +71,7 @@ DirectLight = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 def read_touching(near: NearField, mesh: Discretization, direct: DirectLight,
                   channels: int) -> tuple[NearField, np.ndarray, int]:
-    """``near`` with the touching pairs' reading points (weights) from their polar cells,
+    """``near`` with the touching pairs' reading points (weights) from their polar moments,
     the change (N + M, C) of the lighting G of the output nodes, then of the interpolation nodes,
     for the detail of the direct light, and the number of pairs it changes;
     ``direct(points, normals)`` gives (m, >= C) the direct light G at points (m, 3) facing unit
@@ -83,16 +84,17 @@ def read_touching(near: NearField, mesh: Discretization, direct: DirectLight,
                               & (near.form_factor >= MIN_FORM_FACTOR))
     touching = touching[np.argsort(-near.form_factor[touching], kind="stable")]  # the largest first
     weights = near.weights.copy()
-    detail = []  # per block: (pair, cell share, cell middle, its barycentric coordinates, corner light)
     for start in range(0, len(touching), PAIRS_PER_BLOCK):
         pairs = touching[start:start + PAIRS_PER_BLOCK]
+        weights[pairs] = _reading_points(points[near.receiver[pairs]], normals[near.receiver[pairs]], triangles[pairs])
+    detail = []  # per block: (pair, cell share, cell middle, its barycentric coordinates, corner light)
+    probed = touching[:MAX_PROBED_PAIRS]
+    for start in range(0, len(probed), PAIRS_PER_BLOCK):
+        pairs = probed[start:start + PAIRS_PER_BLOCK]
         receivers, patch_corners = near.receiver[pairs], triangles[pairs]
         middles, shares = _polar_cells(points[receivers], normals[receivers], patch_corners)
         where = barycentric(middles.reshape(-1, 3), np.repeat(patch_corners, middles.shape[1], axis=0))
         where = where.reshape(len(pairs), -1, 3)
-        weights[pairs] = np.einsum("km,kmb->kb", shares, where)
-        if start >= MAX_PROBED_PAIRS:
-            continue
         corner_light = _corner_light(near, pairs, points, normals, direct, channels)
         misread = _misread(middles, where, shares, mesh.patch_normals[near.patch[pairs]], corner_light, direct,
                            channels)
@@ -140,53 +142,100 @@ def _misread(middles, where, shares, normals, corner_light, direct: DirectLight,
     return misread
 
 
+@dataclass(frozen=True)
+class _Polar:
+    """Polar coordinates about the foot of each point (k of them) on its triangle: x = foot +
+    rho (cos theta u + sin theta v) for the ANGLES middle directions theta; the point at
+    ``height`` h over the foot; ``reach`` (k, A) where each direction leaves the triangle.
+    From the point facing n_p, x - p = rho e(theta) - h n_q, so
+
+        dF = (rho a - h b)+ h / (pi r^4) rho d rho d theta,  a = e . n_p (``towards``, (k, A)),
+        b = n_q . n_p (``facing``, (k,)), r^2 = rho^2 + h^2."""
+
+    foot: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    height: np.ndarray
+    reach: np.ndarray
+    towards: np.ndarray
+    facing: np.ndarray
+
+    @classmethod
+    def about(cls, points: np.ndarray, normals: np.ndarray, triangles: np.ndarray) -> "_Polar":
+        plane = areas_and_normals(triangles)[1]
+        height = np.maximum(np.einsum("kx,kx->k", points - triangles[:, 0], plane), 1e-9 * longest_edges(triangles))
+        foot = np.clip(barycentric(points - height[:, None] * plane, triangles), 0.0, None)
+        foot = np.einsum("kb,kbx->kx", foot / foot.sum(axis=1, keepdims=True), triangles)
+        u, v = tangent_frames(plane)  # u x v = the plane's normal: the triangle is counter-clockwise in (u, v)
+        flat = np.stack([np.einsum("kcx,kx->kc", triangles - foot[:, None], axis) for axis in (u, v)], axis=2)
+        cos, sin = np.cos(_THETA), np.sin(_THETA)
+        reach = _exit_distances(flat, np.broadcast_to(np.stack([cos, sin], axis=1), (len(points), ANGLES, 2)))
+        towards = cos * np.einsum("kx,kx->k", u, normals)[:, None] + sin * np.einsum("kx,kx->k", v, normals)[:, None]
+        return cls(foot, u, v, height, reach, towards, np.einsum("kx,kx->k", plane, normals))
+
+    def directions(self) -> np.ndarray:
+        """(k, A, 3) the unit vectors e(theta)."""
+        return np.cos(_THETA)[None, :, None] * self.u[:, None] + np.sin(_THETA)[None, :, None] * self.v[:, None]
+
+    def moments(self, inner: np.ndarray, outer: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The share of the form factor, and its first moment in rho, of the rings inner < rho <
+        outer (arrays (k, A, S)) of each direction's sector of angle 2 pi / ANGLES, exact in rho
+        (rho^2 / r^4, rho / r^4 and rho^3 / r^4 have closed antiderivatives) where the kernel is
+        positive: rho a > h b."""
+        h = self.height[:, None, None]
+        a = self.towards[..., None]
+        b = self.facing[:, None, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            turn = h * b / a
+        low = np.where(a > 0, np.maximum(inner, np.where(b > 0, turn, 0.0)), inner)
+        high = np.where(a < 0, np.where(b < 0, np.minimum(outer, turn), 0.0), outer)
+        high = np.maximum(np.where((a == 0) & (b >= 0), 0.0, high), low)
+
+        def share(rho):
+            r2 = rho * rho + h * h
+            return a * 0.5 * (np.arctan(rho / h) / h - rho / r2) + h * b / (2 * r2)
+
+        def moment(rho):
+            r2 = rho * rho + h * h
+            return a * 0.5 * (np.log(r2) + h * h / r2) - h * b * 0.5 * (np.arctan(rho / h) / h - rho / r2)
+
+        scale = h * (2 / ANGLES)  # h / pi times the sector's angle
+        return (np.maximum(scale * (share(high) - share(low)), 0.0),
+                np.maximum(scale * (moment(high) - moment(low)), 0.0))
+
+
+_THETA = 2 * np.pi * (np.arange(ANGLES) + 0.5) / ANGLES
+
+
+def _reading_points(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(k, 3) barycentric coordinates of the centre of each triangle (k, 3, 3) weighted by the
+    unoccluded form factor from each point (k, 3) facing ``normals``: sum over directions of
+    the first moment along e(theta), over the form factor (a linear reading is read there)."""
+    polar = _Polar.about(points, normals, triangles)
+    zero = np.zeros_like(polar.reach)[..., None]
+    share, moment = polar.moments(zero, polar.reach[..., None])
+    total = share.sum(axis=(1, 2))
+    offset = np.einsum("ka,kax->kx", moment[..., 0], polar.directions())
+    centre = polar.foot + np.divide(offset, total[:, None], out=np.zeros_like(offset), where=total[:, None] > 0)
+    return barycentric(centre, triangles)
+
+
 def _polar_cells(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(k, m, 3) the middles of m cells of each triangle (k, 3, 3) in polar coordinates about
     the foot of each point (k, 3) on it, and (k, m) each cell's share of the unoccluded form
-    factor from the point facing ``normals``: ANGLES equal angles, each direction cut at
-    SHELL_RADII heights from the foot up to where it leaves the triangle.
-
-    With the point at height h over the foot, x - p = rho e(theta) - h n_q, so
-    dF = (rho a - h b)+ h / (pi r^4) rho d rho d theta with a = e . n_p, b = n_q . n_p,
-    r^2 = rho^2 + h^2, integrated exactly in rho (the antiderivatives of rho^2 / r^4 and rho / r^4)
-    and at the middle angle of each cell."""
+    factor from the point facing ``normals``: ANGLES directions, each cut at SHELL_RADII heights
+    from the foot up to where it leaves the triangle; beyond FINE_SHELLS, the cells of
+    COARSE_GROUP neighbouring directions are one, at their share-weighted centre (far from the
+    foot each holds little and the light changes slowly)."""
     count = len(points)
-    plane = areas_and_normals(triangles)[1]
-    height = np.maximum(np.einsum("kx,kx->k", points - triangles[:, 0], plane), 1e-9 * longest_edges(triangles))
-    foot = np.clip(barycentric(points - height[:, None] * plane, triangles), 0.0, None)
-    foot = np.einsum("kb,kbx->kx", foot / foot.sum(axis=1, keepdims=True), triangles)
-    u, v = tangent_frames(plane)  # u x v = the plane's normal: the triangle is counter-clockwise in (u, v)
-    flat = np.stack([np.einsum("kcx,kx->kc", triangles - foot[:, None], axis) for axis in (u, v)], axis=2)
-    theta = 2 * np.pi * (np.arange(ANGLES) + 0.5) / ANGLES
-    reach = _exit_distances(flat, np.broadcast_to(np.stack([np.cos(theta), np.sin(theta)], axis=1),
-                                                  (count, ANGLES, 2)))  # (k, A)
-    towards = np.cos(theta) * np.einsum("kx,kx->k", u, normals)[:, None] \
-        + np.sin(theta) * np.einsum("kx,kx->k", v, normals)[:, None]  # a (k, A)
-    facing = np.einsum("kx,kx->k", plane, normals)[:, None, None]  # b
-    h = height[:, None, None]
-    radii = height[:, None] * SHELL_RADII  # (k, S)
-    bounds = np.minimum(np.concatenate([np.zeros((count, 1)), radii], axis=1)[:, None, :], reach[..., None])
-    bounds[..., -1] = reach  # (k, A, S + 1): the last shell reaches the edge
-    a = towards[..., None]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        turn = h * facing / a  # where rho a - h b changes sign
-    low = np.where(a > 0, np.maximum(bounds[..., :-1], np.where(facing > 0, turn, 0.0)), bounds[..., :-1])
-    high = np.where(a < 0, np.where(facing < 0, np.minimum(bounds[..., 1:], turn), 0.0), bounds[..., 1:])
-    high = np.where((a == 0) & (facing >= 0), 0.0, high)
-    high = np.maximum(high, low)
-
-    def antiderivative(rho):
-        r2 = rho * rho + h * h
-        return a * 0.5 * (np.arctan(rho / h) / h - rho / r2) + h * facing / (2 * r2)
-
-    shares = h / np.pi * (antiderivative(high) - antiderivative(low)) * (2 * np.pi / ANGLES)  # (k, A, S)
-    shares = np.maximum(shares, 0.0)
+    polar = _Polar.about(points, normals, triangles)
+    radii = polar.height[:, None] * SHELL_RADII  # (k, S)
+    bounds = np.minimum(np.concatenate([np.zeros((count, 1)), radii], axis=1)[:, None, :], polar.reach[..., None])
+    bounds[..., -1] = polar.reach  # (k, A, S + 1): the last shell reaches the edge
+    shares = polar.moments(bounds[..., :-1], bounds[..., 1:])[0]  # (k, A, S)
     middle = np.sqrt(bounds[..., 1:] * bounds[..., :-1])
     middle[..., 0] = bounds[..., 1] / 2
-    direction = np.cos(theta)[None, :, None] * u[:, None, :] + np.sin(theta)[None, :, None] * v[:, None, :]  # (k, A, 3)
-    middles = foot[:, None, None] + middle[..., None] * direction[:, :, None]  # (k, A, S, 3)
-    # beyond FINE_SHELLS the cells of COARSE_GROUP neighbouring directions are one, at their
-    # share-weighted centre: far from the foot each holds little and the light changes slowly
+    middles = polar.foot[:, None, None] + middle[..., None] * polar.directions()[:, :, None]  # (k, A, S, 3)
     outer_shares = shares[:, :, FINE_SHELLS:].reshape(count, -1, COARSE_GROUP, SHELLS - FINE_SHELLS)
     outer_middles = middles[:, :, FINE_SHELLS:].reshape(count, -1, COARSE_GROUP, SHELLS - FINE_SHELLS, 3)
     outer_total = outer_shares.sum(axis=2)
