@@ -405,13 +405,14 @@ def _reading(a: Analysis) -> list[str]:
         "",
         f"- Per surface, the luminance ratio ours / Cycles runs from {luminance.min():.3f} to {luminance.max():.3f}; "
         f"the furthest from 1 is `{SURFACES[worst]}` ({luminance[worst]:.3f}; R, G, B {rgb(ratios[worst], 3)}).",
-        f"- The difference is at the edges: {100 * a.squared_share(a.touching):.0f} % of our squared error sits on "
+        f"- Where the difference sits: {100 * a.squared_share(a.touching):.0f} % of our squared error is on "
         f"the {100 * a.touching.mean():.0f} % of corners where two surfaces meet; elsewhere our bias is "
         f"{pct(rest_bias)}. It is not Cycles' Principled BSDF, the light's back or where our nodes sit (see "
         "\"What the difference does not come from\")." + a.refinement_sentence() + " Our reading: what is left "
-        "is our discretisation at the edges. A vertex on an edge gathers much of its light from the patch just "
-        "across it; the near field reads that patch as linear between its corner colours (docs/methods.md), "
-        "and the true profile next to a contact line is not linear.",
+        "is our discretisation. A vertex on an edge gathers much of its light from the patch just across it; "
+        "the near field reads that patch as linear between its corner colours at the point the vertex looks at, "
+        "and the direct light there exactly where a shadow starts at the vertex (core/touching.py, "
+        "docs/methods.md), but the indirect light next to a contact line is not linear either.",
         "- Ours is smooth and systematic where Cycles' error is noise (grain from vertex to vertex): at equal "
         "NRMSE the two do not look alike.",
         *FINDINGS,
@@ -428,6 +429,13 @@ FINDINGS: list[str] = [
     "(the floor's patches straddled the blocks' footprints). Measured with bench/cycles_rescore.py on that run's "
     "Cycles answer: the contact cuts alone took the default bake to 4.1 %, with the near field to 0.86 % (every "
     "ray cast; probe rays, the default since, add about 0.1 %).",
+    "- Before the touching patches were read at the right place (core/touching.py; core of commit d002675, the "
+    "previous run of this script, 2026-11-22): the default bake was 0.77 % from Cycles' converged answer (1.04 s) "
+    "and our converged reference 0.56 % (1.3 x Cycles' noise), 51 % of the default's squared error on the "
+    "corners where two surfaces meet (1.47 % there); the blocks' bottom corners were up to 35 % off (the "
+    "short block's 16 touching corners 4.1 % RMS for the reference). A brute-force final gather at the worst "
+    "corners (one more bounce, gathered exactly at each ray's hit point) came within 2-4 % of Cycles there, "
+    "which located the error in the floor's light right at the blocks' feet.",
     "- The core's own error estimate (last column of the first table): since the core of commit 2812e32 ray-cast "
     "bakes estimate the discretisation from how far the patches next to each vertex are from linear "
     "(core/nearfield.py, reading_error); the previous run reported 27 % for the default bake's 1.0 %.",
