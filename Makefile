@@ -56,13 +56,14 @@ extension: $(VENV)/.ready
 
 ## Speed and accuracy figures (docs/benchmarks.md), the trade-off sweep of every knob, method, solver and
 ## preset (docs/tradeoffs.md and its figures; `$(PY) bench/sweep.py --quick` is a one-minute check), then
-## Cycles against ours on the sample Cornell box (docs/cycles.md, the README's headline plot) and on the
-## box with 40 x 40 walls (docs/fine_mesh.md): about 50 minutes on 2 cores
+## Cycles against ours on the sample Cornell box (docs/cycles.md, the README's headline plot), on the
+## box with 40 x 40 walls (docs/fine_mesh.md) and on Sponza (docs/sponza.md): about 70 minutes on 2 cores
 bench: $(VENV)/.ready
 	$(PY) bench/run.py
 	$(PY) bench/sweep.py
 	$(PY) bench/cycles.py
 	$(PY) bench/fine_mesh.py
+	$(PY) bench/sponza.py
 
 # wheels/ stays: it only holds downloads, which the extension build and its test reuse
 clean:

@@ -5,11 +5,15 @@ the checkout as a real extension (tools/source_extension.py), opens the file, me
 JSON. Times are taken around the bake calls only (Blender's start-up and the file load excluded).
 
 Cases (dicts, JSON on the command line), by ``kind``; ``blend`` names another file with the same
-objects (bench/fine_mesh.py: the box with finer grids):
+objects (bench/fine_mesh.py: the box with finer grids), or with other objects when ``emitters`` names
+its emitting meshes (bench/sponza.py): every other mesh is then compared, in the order of its name:
 
 - ``ours``: ``bpy.ops.radiosity.bake()``; ``settings`` sets ``scene.radiosity`` properties first
   (e.g. ``{"preset": "CUSTOM", "patch_size": 0.03, "rays": "256"}``), ``node_inset`` moves
   core.discretize.NODE_INSET, ``render`` is a path for a picture of the baked colours.
+- ``core``: the core's ``bake()`` of the file's scene as the add-on extracts it, with ``knobs`` the
+  add-on does not offer (``max_shots``), timed around the core call; the colours are written as the
+  add-on writes them.
 - ``cycles``: a COMBINED vertex bake with ``samples`` and ``seed`` (../shared/CYCLES.md's recipe),
   optionally on a scene changed by one of VARIANTS.
 - ``check``: the same Cycles bake per object and all at once (``samples``, ``seed``).
@@ -54,7 +58,8 @@ def worker(case: dict, result_path: str) -> None:
 
     bpy.ops.wm.open_mainfile(filepath=case.get("blend", str(BLEND)), load_ui=False)
     kind = case["kind"]
-    result = {"ours": _case_ours, "cycles": _case_cycles, "check": _case_check, "render": _case_render}[kind](
+    result = {"ours": _case_ours, "core": _case_core, "cycles": _case_cycles, "check": _case_check,
+              "render": _case_render}[kind](
         bpy, package, case
     )
     result["threads"] = bpy.context.scene.render.threads
@@ -113,19 +118,35 @@ def _counts(stats: dict) -> dict:
     return counts | {key: stats["settings"][key] for key in ("patch_size", "rays_per_form_factor", "tolerance")}
 
 
+def _case_core(bpy, package, case: dict) -> dict:
+    """The core's bake with ``case["knobs"]`` on the scene the add-on extracts (two-sided, as the
+    panel's default), timed around ``core.bake``; the colours written by the add-on's writer."""
+    addon = package.radiosity_addon
+    extraction = addon.extract.extract(bpy.context.evaluated_depsgraph_get(), two_sided=True)
+    wall, cpu = time.perf_counter(), _cpu_seconds()
+    result = package.core.bake(extraction.scene, **case["knobs"])
+    wall, cpu = time.perf_counter() - wall, _cpu_seconds() - cpu
+    addon.write.write(extraction.targets, result.corner_colors, ATTRIBUTE)
+    stats = result.stats
+    return {"wall": wall, "cpu": cpu, "core_seconds": stats["seconds"]["total"],
+            "stages": {k: v for k, v in stats["seconds"].items() if k != "total"},
+            "counts": _counts(stats) | {"max_shots": stats["settings"]["max_shots"]},
+            "objects": _read_corners(bpy, ATTRIBUTE, emitters=case.get("emitters"))}
+
+
 def _case_cycles(bpy, _package, case: dict) -> dict:
     """A Cycles COMBINED vertex bake of every non-emitting mesh at once (the check case shows it
     equals baking them one by one), timed around ``bpy.ops.object.bake``."""
     _cycles_settings(bpy.context.scene, case["samples"], case["seed"])
     if case.get("variant"):
         VARIANTS[case["variant"]][1](bpy)
-    meshes = _baked_meshes(bpy)
+    meshes = _baked_meshes(bpy, case.get("emitters"))
     _add_attribute(meshes, CYCLES_ATTRIBUTE)
     _select(bpy, meshes)
     wall, cpu = time.perf_counter(), _cpu_seconds()
     bpy.ops.object.bake(type="COMBINED", target="VERTEX_COLORS")
     wall, cpu = time.perf_counter() - wall, _cpu_seconds() - cpu
-    return {"wall": wall, "cpu": cpu, "objects": _read_corners(bpy, CYCLES_ATTRIBUTE)}
+    return {"wall": wall, "cpu": cpu, "objects": _read_corners(bpy, CYCLES_ATTRIBUTE, emitters=case.get("emitters"))}
 
 
 def _diffuse_bsdf(bpy) -> None:
@@ -225,9 +246,14 @@ def _cycles_settings(scene, samples: int, seed: int) -> None:
     cycles.light_sampling_threshold = 0.0
 
 
-def _baked_meshes(bpy) -> list:
-    """The non-emitting mesh objects, in SURFACES order; fails if the file has other surfaces."""
+def _baked_meshes(bpy, emitters: list[str] | None = None) -> list:
+    """The non-emitting mesh objects: the Cornell box's in SURFACES order (failing if the file has
+    other surfaces), or, given the names of the ``emitters``, every other mesh by name."""
     meshes = {obj.name: obj for obj in bpy.context.scene.objects if obj.type == "MESH"}
+    if emitters is not None:
+        if not set(emitters) <= set(meshes):
+            raise RuntimeError(f"emitters {sorted(set(emitters) - set(meshes))} are not meshes of the file")
+        return [meshes[name] for name in sorted(set(meshes) - set(emitters))]
     if set(meshes) != set(SURFACES) | set(EMITTERS):
         raise RuntimeError(f"unexpected meshes in {BLEND.name}: {sorted(meshes)}")
     return [meshes[name] for name in SURFACES]
@@ -249,12 +275,12 @@ def _select(bpy, objects: list) -> None:
     bpy.context.view_layer.objects.active = objects[0]
 
 
-def _read_corners(bpy, attribute: str, with_geometry: bool = False) -> dict:
-    """{object: {"colours": (n, 3) list, "weights": (n,) list}} over the non-emitting meshes, per
-    loop (corner): the colour attribute's RGB and the corner's share of its polygon's area; with
-    ``with_geometry``, also the _geometry of each mesh."""
+def _read_corners(bpy, attribute: str, with_geometry: bool = False, emitters: list[str] | None = None) -> dict:
+    """{object: {"colours": (n, 3) list, "weights": (n,) list}} over the non-emitting meshes
+    (``_baked_meshes``), per loop (corner): the colour attribute's RGB and the corner's share of
+    its polygon's area; with ``with_geometry``, also the _geometry of each mesh."""
     out = {}
-    for obj in _baked_meshes(bpy):
+    for obj in _baked_meshes(bpy, emitters):
         mesh = obj.data
         data = mesh.color_attributes[attribute]
         if data.data_type != "FLOAT_COLOR" or data.domain != "CORNER":
