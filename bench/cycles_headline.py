@@ -30,14 +30,13 @@ DEFAULT_RUNS = 3  # the default bake is short: timed in this many processes, the
 # size in metres: the scene's extent is 0.96 m, so REFERENCE's patches are 60 mm; this file's input
 # triangles, at most 97 mm, are split by patches of 60 mm or less). The TWIN preset's bake is its
 # coarser twin: their difference shows whether the reference has converged. Measured by hand on
-# 2026-11-22 with the near field and contact cuts (bench/cycles_rescore.py, against the 16384-sample
-# Cycles mean of the previous run): 60 mm patches, 16 rays: 0.60 % from Cycles (noise removed); the
-# same with 64 rays, every ray cast: 0.27 % from it, 2 minutes; 45 mm patches (13,914 patches), 16 rays:
-# 0.33 % from the 60 mm bake and 0.56 % from Cycles, 5 minutes (its form-factor columns no longer
-# all fit the cache). Before the near field, refinement levels were what the reference needed (the
-# corners of contact edges); now the patches and rays converge together, slowly.
+# 2026-12-01 (the core of commit d88f000, against the 16384-sample Cycles mean of a run that day,
+# its noise removed): 45 mm patches (13,914 patches) with 16 rays, 42 s: 0.35 % from Cycles, 0.25 % on
+# the corners away from the edges; with 64 rays, 84 s: 0.28 %, 0.11 % away from the edges, and 0.22 %
+# from the 16-ray bake, which is the visibility noise the 16-ray reference charged to every bake
+# measured against it (the default bake: 0.54 % from the 16-ray reference, 0.49 % from this one).
 TWIN = "REFERENCE"
-FINER = {"preset": "CUSTOM", "patch_size": 0.045, "rays": "16", "tolerance": 1e-4}
+FINER = {"preset": "CUSTOM", "patch_size": 0.045, "rays": "64", "tolerance": 1e-4}
 # --quick: cheap stand-ins, to try the plumbing (not converged)
 QUICK_TWIN, QUICK_FINER = "PREVIEW", {"preset": "CUSTOM", "patch_size": 0.1, "rays": "36", "tolerance": 1e-5}
 

@@ -43,10 +43,10 @@ SAMPLES, QUICK_SAMPLES = 1024, 64
 SEEDS = (1, 2)
 PRESETS = ("DRAFT", "PREVIEW", "PRODUCTION")
 QUICK_PRESETS = ("DRAFT",)
-# Our converged reference here: as docs/cycles.md's on the 8 x 8 file, patches of 45 mm (extent / 21,
-# flat regions merged), 16 rays, tolerance 1e-4. Checked against Cycles' answer below, and against
-# the REFERENCE preset (extent / 16).
-REFERENCE_SETTINGS = {"preset": "CUSTOM", "patch_size": 0.045, "rays": "16", "tolerance": 1e-4}
+# Our converged reference here: as docs/cycles.md's on the 8 x 8 file (bench/cycles_headline.py FINER),
+# patches of 45 mm (extent / 21, flat regions merged), 64 rays, tolerance 1e-4. Checked against Cycles'
+# answer below, and against the REFERENCE preset (extent / 16).
+REFERENCE_SETTINGS = {"preset": "CUSTOM", "patch_size": 0.045, "rays": "64", "tolerance": 1e-4}
 QUICK_REFERENCE_SETTINGS = {"preset": "REFERENCE"}
 TWIN = "REFERENCE"  # the preset the reference is compared with, to show it converged
 # Quoted from the issue (not measured here): Cycles on a Cornell box with 40 x 40 walls, 2 cores.
