@@ -46,6 +46,7 @@ QUADRATURE_DIVISIONS = 4
 REFINED = 2
 PEAKED = 0.25
 PAIRS_PER_BLOCK = 1024  # pairs per block of that quadrature, spread over the threads
+RAY_PAIRS_PER_BLOCK = 1 << 14  # pairs per block of ray-cast form factors, spread over the threads
 # Corners of different patches closer than this fraction of the scene's extent share a node.
 CORNER_WELD = 1e-7
 ITERATION_TOLERANCE = 1e-10  # relative change of the colours at which the fixed point stops
@@ -238,7 +239,11 @@ def _near_pairs(points: np.ndarray, normals: np.ndarray, mesh: Discretization, l
     heights = np.einsum("kcx,kx->kc", mesh.patch_corners[patches] - points[receivers][:, None], normals[receivers])
     above = heights.max(axis=1) > HORIZON * edges[patches]
     receivers, patches = receivers[above], patches[above]
-    factors = form_factors(points, normals, receivers, patches) if len(receivers) else np.zeros(0)
+    parts = parallel.map_ordered(
+        lambda start: form_factors(points, normals, receivers[start:start + RAY_PAIRS_PER_BLOCK],
+                                   patches[start:start + RAY_PAIRS_PER_BLOCK]),
+        range(0, len(receivers), RAY_PAIRS_PER_BLOCK))
+    factors = np.concatenate([np.zeros(0), *parts])
     seen = factors > 0
     return receivers[seen], patches[seen], factors[seen]
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import parallel
 from .discretize import Discretization
 from .geometry import barycentric_grid, tangent_frames
 from .visibility import Visibility
@@ -22,6 +23,7 @@ from .visibility import Visibility
 SAMPLE_DIVISIONS = 4  # the patch is tested at the centroids of its 4 x 4 strata
 RING = 6  # probe directions around the normal, at PROBE_ANGLE from it
 PROBE_ANGLE = np.radians(60)
+RAYS_PER_BLOCK = 1 << 18  # probe rays per block of work on the thread pool
 
 
 def receiving_points(mesh: Discretization, visibility: Visibility) -> np.ndarray:
@@ -44,18 +46,38 @@ def receiving_points(mesh: Discretization, visibility: Visibility) -> np.ndarray
 
 def _buried(points: np.ndarray, normals: np.ndarray, visibility: Visibility) -> np.ndarray:
     """(P, S) bool: whether every probe ray from points (P, S, 3) on surfaces facing normals
-    (P, 3) first meets the back of a triangle."""
-    tangent, bitangent = tangent_frames(normals)
+    (P, 3) first meets the back of a triangle. The ray along the normal goes first, the ring only
+    from the points where it met a back (elsewhere the point is free whatever the ring meets):
+    in a room most points see a front along their normal, so most of the ring is never cast."""
+    patches, samples = points.shape[:2]
+    origins = points.reshape(-1, 3)
+    lift = np.repeat(normals, samples, axis=0)
+    candidates = np.flatnonzero(_meets_a_back(origins, lift, lift, visibility))
+    if len(candidates) == 0:
+        return np.zeros((patches, samples), dtype=bool)
+    tangent, bitangent = tangent_frames(lift[candidates])
     angles = 2 * np.pi * np.arange(RING) / RING
-    ring = (np.cos(PROBE_ANGLE) * normals[:, None]
+    ring = (np.cos(PROBE_ANGLE) * lift[candidates][:, None]
             + np.sin(PROBE_ANGLE) * (np.cos(angles)[None, :, None] * tangent[:, None]
-                                     + np.sin(angles)[None, :, None] * bitangent[:, None]))
-    directions = np.concatenate([normals[:, None], ring], axis=1)  # (P, D, 3)
-    patches, samples, probes = points.shape[0], points.shape[1], directions.shape[1]
-    origins = np.repeat(points, probes, axis=1).reshape(-1, 3)
-    rays = np.tile(directions, (1, samples, 1)).reshape(-1, 3)
-    lift = np.repeat(normals, samples * probes, axis=0)
-    hit = visibility.nearest(origins, rays, lift)
-    hit_normals = visibility.triangle_normals[np.maximum(hit, 0)]
-    back = (hit >= 0) & ((rays * hit_normals).sum(axis=1) > 0) & ~visibility.two_sided[np.maximum(hit, 0)]
-    return back.reshape(patches, samples, probes).all(axis=2)
+                                     + np.sin(angles)[None, :, None] * bitangent[:, None]))  # (k, RING, 3)
+    back = _meets_a_back(np.repeat(origins[candidates], RING, axis=0), ring.reshape(-1, 3),
+                         np.repeat(lift[candidates], RING, axis=0), visibility)
+    buried = np.zeros(patches * samples, dtype=bool)
+    buried[candidates] = back.reshape(-1, RING).all(axis=1)
+    return buried.reshape(patches, samples)
+
+
+def _meets_a_back(origins: np.ndarray, directions: np.ndarray, lift: np.ndarray, visibility: Visibility) -> np.ndarray:
+    """(n,) bool: whether the ray from each origin (n, 3; lifted off its surface along ``lift``)
+    along ``directions`` (n, 3, unit) first meets the back of a one-sided triangle; in blocks on
+    the thread pool."""
+
+    def block(start: int) -> np.ndarray:
+        chunk = slice(start, start + RAYS_PER_BLOCK)
+        hit = visibility.nearest(origins[chunk], directions[chunk], lift[chunk])
+        index = np.maximum(hit, 0)
+        facing = (directions[chunk] * visibility.triangle_normals[index]).sum(axis=1) > 0
+        return (hit >= 0) & facing & ~visibility.two_sided[index]
+
+    parts = list(parallel.map_ordered(block, range(0, len(origins), RAYS_PER_BLOCK)))
+    return np.concatenate(parts) if parts else np.zeros(0, dtype=bool)

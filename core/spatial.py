@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import parallel
+
 # A box is listed in every grid cell it overlaps; one overlapping more than LARGE_CELLS cells is
 # tested against every box of the other set instead.
 LARGE_CELLS = 4096
@@ -69,16 +71,20 @@ def _grid_pairs(boxes_a, chosen_a, boxes_b, chosen_b, corners):
     start = np.searchsorted(key_b, key_a, side="left")
     count = np.searchsorted(key_b, key_a, side="right") - start
     total = np.cumsum(count)
-    found, begin = [empty], 0
+    bounds, begin = [], 0
     while begin < len(key_a):  # listings of a in blocks of at most PAIRS_PER_BLOCK candidate pairs
         end = max(begin + 1, int(np.searchsorted(total, (total[begin - 1] if begin else 0) + PAIRS_PER_BLOCK)))
-        block = slice(begin, end)
-        first = np.repeat(owner_a[block], count[block])
-        second = owner_b[np.repeat(start[block], count[block]) + ranks(count[block])]
-        touch = _boxes_touch(low_a, high_a, first, low_b, high_b, second)
-        found.append(np.unique(first[touch] * len(low_b) + second[touch]))
+        bounds.append((begin, end))
         begin = end
-    keys = np.unique(np.concatenate(found))
+
+    def block(bound: tuple[int, int]) -> np.ndarray:
+        chunk = slice(*bound)
+        first = np.repeat(owner_a[chunk], count[chunk])
+        second = owner_b[np.repeat(start[chunk], count[chunk]) + ranks(count[chunk])]
+        touch = _boxes_touch(low_a, high_a, first, low_b, high_b, second)
+        return np.unique(first[touch] * len(low_b) + second[touch])
+
+    keys = np.unique(np.concatenate([empty, *parallel.map_ordered(block, bounds)]))
     return keys // len(low_b), keys % len(low_b)
 
 

@@ -6,10 +6,10 @@ import importlib
 import numpy as np
 import pytest
 
-from core import Scene, bake, refine
+from core import Scene, bake, receivers, refine
 from core.discretize import discretize
 from core.formfactors import FormFactorEngine
-from core.geometry import barycentric_grid
+from core.geometry import barycentric_grid, tangent_frames
 from core.receivers import receiving_points
 from tests.core.scenes import box, lit_room, merge, quad
 
@@ -112,3 +112,42 @@ def test_a_patch_under_a_block_receives_where_it_can_be_seen():
     for patch in np.flatnonzero(partly):
         chosen = np.flatnonzero((tests[patch] == points[patch]).all(axis=1))
         assert len(chosen) == 1 and not under[patch, chosen[0]]
+
+
+def test_burial_probes_agree_with_casting_every_ring_ray():
+    """The buried test casts the ring of probes only where the ray along the normal met a back:
+    the same verdict, point by point, as casting all seven probes everywhere (the definition, cast
+    here by brute force), on a floor under a closed block standing on it (not cut along its
+    footprint), a one-sided open box (no bottom) hovering over it, and a two-sided card."""
+    floor = quad([-1, -1, 0], [2, 0, 0], [0, 2, 0])
+    vertices, triangles = box(0.5)
+    block = (vertices + [0.2, 0.2, 0.0], triangles[:, ::-1])
+    open_vertices, open_triangles = box(0.4)
+    keep = ~(open_vertices[open_triangles][:, :, 2] == 0).all(axis=1)  # drop the bottom
+    open_box = (open_vertices + [-0.8, -0.8, 0.05], open_triangles[keep][:, ::-1])
+    card = quad([0.0, -0.9, 0.0], [0.5, 0, 0], [0, 0, 0.5])
+    vertices, triangles = merge(floor, block, open_box, card)
+    count = len(triangles)
+    two_sided = np.zeros(count, dtype=bool)
+    two_sided[-2:] = True
+    scene = Scene(vertices, triangles, np.full((count, 3), 0.5), np.zeros((count, 3)), two_sided=two_sided)
+    mesh = discretize(scene, 0.3, cut_contacts=False)
+    visibility = FormFactorEngine(mesh).visibility
+    weights, cells = barycentric_grid(receivers.SAMPLE_DIVISIONS)
+    points = np.einsum("sb,pbx->psx", weights[cells].mean(axis=1), mesh.patch_corners)
+    normals = mesh.patch_normals
+    tangent, bitangent = tangent_frames(normals)
+    angles = 2 * np.pi * np.arange(receivers.RING) / receivers.RING
+    ring = (np.cos(receivers.PROBE_ANGLE) * normals[:, None]
+            + np.sin(receivers.PROBE_ANGLE) * (np.cos(angles)[None, :, None] * tangent[:, None]
+                                                + np.sin(angles)[None, :, None] * bitangent[:, None]))
+    directions = np.concatenate([normals[:, None], ring], axis=1)  # (P, 7, 3)
+    samples, probes = points.shape[1], directions.shape[1]
+    rays = np.repeat(directions[:, None], samples, axis=1).reshape(-1, 3)
+    hit = visibility.nearest(np.repeat(points.reshape(-1, 3), probes, axis=0), rays,
+                             np.repeat(normals, samples * probes, axis=0))
+    index = np.maximum(hit, 0)
+    back = (hit >= 0) & ((rays * visibility.triangle_normals[index]).sum(axis=1) > 0) & ~visibility.two_sided[index]
+    expected = back.reshape(len(points), samples, probes).all(axis=2)
+    assert expected.sum() > 50 and (~expected).sum() > 50  # both verdicts occur
+    np.testing.assert_array_equal(receivers._buried(points, normals, visibility), expected)
