@@ -493,6 +493,20 @@ def run(labelled: list[tuple[str, dict]], start: float) -> dict[str, dict]:
     return results
 
 
+def save_results(data: dict, path: Path) -> None:
+    """A run's raw results as JSON at ``path``, for ``--from-results``."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data))
+    print(f"wrote {path.relative_to(REPO)}")
+
+
+def write_report(text: str, path: Path) -> None:
+    """The Markdown ``text`` at ``path``, and on the terminal."""
+    path.write_text(text)
+    print(text)
+    print(f"wrote {path.relative_to(REPO)}")
+
+
 def measure(samples: int, quick: bool, docs: Path) -> dict:
     """Run every case; the results with the run's header, settings and minutes (JSON-ready)."""
     counts = ladder(samples)
@@ -553,10 +567,7 @@ def main(argv: list[str]) -> int:
         docs = QUICK_DOCS if options.quick else DOCS
         docs.mkdir(parents=True, exist_ok=True)
         run_data = measure(samples, options.quick, docs) | {"argv": argv}
-        results_path = QUICK_RESULTS if options.quick else RESULTS
-        results_path.parent.mkdir(parents=True, exist_ok=True)
-        results_path.write_text(json.dumps(run_data))
-        print(f"wrote {results_path.relative_to(REPO)}")
+        save_results(run_data, QUICK_RESULTS if options.quick else RESULTS)
     docs = QUICK_DOCS if run_data["quick"] else DOCS
     print()
     print(report(run_data, argv, docs))

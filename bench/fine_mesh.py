@@ -28,7 +28,7 @@ from pathlib import Path
 
 import machine
 import numpy as np
-from cycles import ladder, run
+from cycles import ladder, run, save_results, write_report
 from cycles_headline import seconds_at
 from cycles_metrics import Corners, nrmse, pct, seed_noise, table, without_noise
 from cycles_worker import REPO
@@ -220,14 +220,8 @@ def main(argv: list[str]) -> int:
         samples = options.samples or (QUICK_SAMPLES if options.quick else SAMPLES)
         reuse = json.loads(options.reuse_cycles.read_text()) if options.reuse_cycles else None
         data = measure(options.quick, samples, reuse)
-        RESULTS.parent.mkdir(parents=True, exist_ok=True)
-        RESULTS.write_text(json.dumps(data))
-        print(f"wrote {RESULTS.relative_to(REPO)}")
-    text = report(data)
-    path = QUICK_REPORT if data["quick"] else REPORT
-    path.write_text(text)
-    print(text)
-    print(f"wrote {path.relative_to(REPO)}")
+        save_results(data, RESULTS)
+    write_report(report(data), QUICK_REPORT if data["quick"] else REPORT)
     return 0
 
 
