@@ -54,7 +54,7 @@ class RadiositySettings(bpy.types.PropertyGroup):
     )
     patch_size: bpy.props.FloatProperty(
         name="Patch Size", default=0.0, min=0.0, soft_max=10.0, subtype="DISTANCE", unit="LENGTH",
-        description="Longest patch edge; 0 picks a quarter of the scene's size",
+        description="Longest patch edge; 0 picks an eighth of the scene's size (the Preview preset's)",
     )
     rays: bpy.props.EnumProperty(name="Rays", items=RAY_ITEMS, default="16",
                                  description="Visibility rays per form factor, area-light sample and sky point")
