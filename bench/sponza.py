@@ -99,13 +99,14 @@ def report(data: dict) -> str:
         cycles_noise.append(noise)
         cycles_seconds.append(wall)
         cycles_rows.append([f"Cycles {n} samples, seeds 1 and 2", f"{wall:.1f}", pct(noise)])
-    our_rows, speedups = [], []
+    our_rows, speedups, estimates = [], [], []
     for label in (f"ours {shots} shots" for shots in (QUICK_SHOTS if quick else SHOTS)):
         result = results[label]
         ours = colours(result)
         error = without_noise(float(np.sqrt(np.mean((ours - answer) ** 2))) / scale, answer_noise)
         cycles_time, how = seconds_at(error, cycles_noise, cycles_seconds)
         speedups.append((label, cycles_time / result["wall"], error, result["wall"]))
+        estimates.append(result["counts"]["error_estimate"]["total"] / error)
         counts, stages = result["counts"], result["stages"]
         our_rows.append([label.removeprefix("ours "), f"{result['wall']:.0f}", f"{counts['unshot_fraction']:.2f}",
                          pct(error), f"{float(np.mean(ours)) / scale:.3f}",
@@ -169,6 +170,9 @@ def report(data: dict) -> str:
         "partitioned (the mean brightness column). The stages around the shots (discretise: contact cuts; setup: "
         "the rays' scene and the buried-patch probes; near field) take "
         f"{fixed:.0f} s of the {shortest['wall']:.0f} s of the bake stopped after {shortest['counts']['max_shots']} shots.",
+        f"- The core's own error estimate {'bounds' if min(estimates) >= 1 else 'does not bound'} the measured "
+        f"error of every bake here ({min(estimates):.2g} to {max(estimates):.2g} times it): the bakes say that they "
+        "are far from converged.",
         "- What it takes: a solver whose cost grows with the scene, not with its square: clustered "
         "(hierarchical) transport, far groups of patches exchanging light as one (docs/methods.md, \"Large "
         "scenes\").",
