@@ -82,6 +82,11 @@ def describe(stats: dict, objects: int, prepared: Prepared) -> str:
                  f"patches {100 * estimate['discretisation']:.2g}%)")
     output = "lighting" if prepared.lighting_only else "radiosity"
     merged = f" merged into {stats['panels']:,} panels" if stats["panels"] != stats["triangles"] else ""
+    stopped = ""
+    if not stats["converged"]:
+        count, unit = (stats["shots"], "shot") if "shots" in stats else (stats["iterations"], "sweep")
+        work = f"{count:,} {unit}{'' if count == 1 else 's'}"
+        stopped = f", stopped after {work}"
     return (f"Baked {output} into '{prepared.attribute}' on {objects} object(s): {stats['triangles']:,} triangles"
             f"{merged}, {stats['patches']:,} patches, {stats['nodes']:,} vertex colours, "
-            f"{stats['lights']} light object(s), {stats['seconds']['total']:.1f} s{left_text}")
+            f"{stats['lights']} light object(s), {stats['seconds']['total']:.1f} s{stopped}{left_text}")

@@ -45,6 +45,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "(sets --preset custom)")
     parser.add_argument("--resolution", type=int, help="hemicube resolution (sets --preset custom)")
     parser.add_argument("--tolerance", type=float, help="(sets --preset custom)")
+    parser.add_argument("--max-shots", type=int, metavar="N", help="progressive: stop after N shots, the rest as the "
+                        "ambient term (0: until the tolerance is met)")
     parser.add_argument("--lighting-only", action="store_true", help="write the lighting, not the full radiosity")
     parser.add_argument("--attribute", metavar="NAME", help="colour attribute to write (default: the file's, "
                         "'Radiosity' when unset)")
@@ -73,8 +75,8 @@ def main(argv: list[str]) -> int:
 def run(input: str | None = None, output: str | None = None, overwrite: bool = False, render: str | None = None,
         preset: str | None = None, method: str | None = None, solver: str | None = None,
         patch_size: float | None = None, rays: int | None = None, resolution: int | None = None,
-        tolerance: float | None = None, lighting_only: bool = False, attribute: str | None = None,
-        quiet: bool = True) -> Outcome:
+        tolerance: float | None = None, max_shots: int | None = None, lighting_only: bool = False,
+        attribute: str | None = None, quiet: bool = True) -> Outcome:
     """Bake the open (or ``input``) file's scene, then save it to ``output`` (or over itself
     with ``overwrite``) and render the colours to ``render``. ValueError for bad input; the
     open file is not saved anywhere unless asked."""
@@ -85,7 +87,8 @@ def run(input: str | None = None, output: str | None = None, overwrite: bool = F
     source = bpy.data.filepath
     target = _target(source, output, overwrite, render)
     scene = bpy.context.scene
-    _apply(scene.radiosity, preset, method, solver, patch_size, rays, resolution, tolerance, lighting_only, attribute)
+    _apply(scene.radiosity, preset, method, solver, patch_size, rays, resolution, tolerance, max_shots, lighting_only,
+           attribute)
     depsgraph = bpy.context.evaluated_depsgraph_get()
     prepared = prepare(scene, depsgraph)
     result = run_straight(prepared, echo=not quiet)
@@ -119,7 +122,8 @@ def _target(source: str, output: str | None, overwrite: bool, render: str | None
     return output
 
 
-def _apply(settings, preset, method, solver, patch_size, rays, resolution, tolerance, lighting_only, attribute):
+def _apply(settings, preset, method, solver, patch_size, rays, resolution, tolerance, max_shots, lighting_only,
+           attribute):
     """Command-line options onto ``scene.radiosity`` (so the saved file records them)."""
     if patch_size is not None and not patch_size > 0:
         raise UsageError(f"--patch-size must be a positive length, got {patch_size}")
@@ -141,6 +145,10 @@ def _apply(settings, preset, method, solver, patch_size, rays, resolution, toler
         if str(rays) not in {item.identifier for item in settings.bl_rna.properties["rays"].enum_items}:
             raise UsageError(f"--rays must be one of 1, 4, 9, 16, 36, 64, 144, 256, got {rays}")
         settings.rays = str(rays)
+    if max_shots is not None:
+        if max_shots < 0:
+            raise UsageError(f"--max-shots must be 0 (no limit) or more, got {max_shots}")
+        settings.max_shots = max_shots
     if method is not None:
         settings.method = method
     if solver is not None:

@@ -71,6 +71,12 @@ class RadiositySettings(bpy.types.PropertyGroup):
         description="Split patches where light changes fast this many times, re-solving after each; "
         "the error estimate follows the refined patches",
     )
+    max_shots: bpy.props.IntProperty(
+        name="Max Shots", default=0, min=0, soft_max=100_000,
+        description="Progressive: stop after this many shots, the light not yet shot added as the ambient term "
+        "(0: shoot until the tolerance is met). For large scenes, where that takes hours: the report's "
+        "estimated error says how much was left",
+    )
     ambient: bpy.props.BoolProperty(
         name="Ambient Term", default=True,
         description="Add an estimate of the light not yet shot (progressive only)",
@@ -114,7 +120,7 @@ class RadiositySettings(bpy.types.PropertyGroup):
         else:
             knobs = preset_knobs(self.preset, extent)
         knobs |= {"ambient": self.ambient, "crease_angle": math.degrees(self.crease_angle),
-                  "merge_flat": self.merge_flat}
+                  "merge_flat": self.merge_flat, "max_shots": self.max_shots or None}
         return self.method, self.solver, knobs
 
 

@@ -60,6 +60,7 @@ def test_overwrite_only_when_asked(cli, saved_scene):
     (["--output", "x.blend", "--preset", "fast"], "invalid choice"),
     (["--output", "x.blend", "--rays", "10"], "--rays must be one of"),
     (["--output", "x.blend", "--patch-size", "-1"], "--patch-size must be a positive length"),
+    (["--output", "x.blend", "--max-shots", "-1"], "--max-shots must be 0 (no limit) or more"),
     (["--output", "x.blend", "--preset", "draft", "--tolerance", "0.1"], "--preset draft fixes the knobs"),
     (["--output", "x.txt"], "must be a .blend file"),
     (["--input", "/nonexistent.blend", "--output", "x.blend"], "no such file"),
@@ -95,3 +96,12 @@ def test_render_writes_a_picture(cli, saved_scene, tmp_path):
     assert cli.main(["--render", picture, "-q"]) == 0
     image = bpy.data.images.load(picture)
     assert tuple(image.size) == (32, 32)
+
+
+def test_max_shots_is_applied_and_saved_with_the_baked_file(cli, saved_scene, tmp_path):
+    output = str(tmp_path / "stopped.blend")
+    assert cli.main(["--output", output, "--max-shots", "1", "-q"]) == 0
+    bpy.ops.wm.open_mainfile(filepath=output)
+    settings = bpy.context.scene.radiosity
+    assert settings.max_shots == 1
+    assert ", stopped after 1 shot, " in settings.last_report, settings.last_report
