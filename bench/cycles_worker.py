@@ -11,9 +11,6 @@ its emitting meshes (bench/sponza.py): every other mesh is then compared, in the
 - ``ours``: ``bpy.ops.radiosity.bake()``; ``settings`` sets ``scene.radiosity`` properties first
   (e.g. ``{"preset": "CUSTOM", "patch_size": 0.03, "rays": "256"}``), ``node_inset`` moves
   core.discretize.NODE_INSET, ``render`` is a path for a picture of the baked colours.
-- ``core``: the core's ``bake()`` of the file's scene as the add-on extracts it, with ``knobs`` the
-  add-on does not offer (``max_shots``), timed around the core call; the colours are written as the
-  add-on writes them.
 - ``cycles``: a COMBINED vertex bake with ``samples`` and ``seed`` (../shared/CYCLES.md's recipe),
   optionally on a scene changed by one of VARIANTS.
 - ``check``: the same Cycles bake per object and all at once (``samples``, ``seed``).
@@ -58,8 +55,7 @@ def worker(case: dict, result_path: str) -> None:
 
     bpy.ops.wm.open_mainfile(filepath=case.get("blend", str(BLEND)), load_ui=False)
     kind = case["kind"]
-    result = {"ours": _case_ours, "core": _case_core, "cycles": _case_cycles, "check": _case_check,
-              "render": _case_render}[kind](
+    result = {"ours": _case_ours, "cycles": _case_cycles, "check": _case_check, "render": _case_render}[kind](
         bpy, package, case
     )
     result["threads"] = bpy.context.scene.render.threads
@@ -106,7 +102,8 @@ def _case_ours(bpy, package, case: dict) -> dict:
         package.radiosity_addon.preview.render_colours(scene, ATTRIBUTE, case["render"])
     return {"wall": wall, "cpu": cpu, "core_seconds": core_seconds, "stages": stages, "counts": counts,
             "summary": summary, "settings": settings, "threads_core": package.core.parallel.THREADS,
-            "objects": _read_corners(bpy, ATTRIBUTE, with_geometry=bool(case.get("render")))}
+            "objects": _read_corners(bpy, ATTRIBUTE, with_geometry=bool(case.get("render")),
+                                     emitters=case.get("emitters"))}
 
 
 def _counts(stats: dict) -> dict:
@@ -115,23 +112,8 @@ def _counts(stats: dict) -> dict:
     counts = {key: stats.get(key) for key in ("triangles", "panels", "patches", "nodes", "shots", "iterations",
                                               "rays_cast", "unshot_fraction", "error_bound", "error_estimate",
                                               "refinements")}
-    return counts | {key: stats["settings"][key] for key in ("patch_size", "rays_per_form_factor", "tolerance")}
-
-
-def _case_core(bpy, package, case: dict) -> dict:
-    """The core's bake with ``case["knobs"]`` on the scene the add-on extracts (two-sided, as the
-    panel's default), timed around ``core.bake``; the colours written by the add-on's writer."""
-    addon = package.radiosity_addon
-    extraction = addon.extract.extract(bpy.context.evaluated_depsgraph_get(), two_sided=True)
-    wall, cpu = time.perf_counter(), _cpu_seconds()
-    result = package.core.bake(extraction.scene, **case["knobs"])
-    wall, cpu = time.perf_counter() - wall, _cpu_seconds() - cpu
-    addon.write.write(extraction.targets, result.corner_colors, ATTRIBUTE)
-    stats = result.stats
-    return {"wall": wall, "cpu": cpu, "core_seconds": stats["seconds"]["total"],
-            "stages": {k: v for k, v in stats["seconds"].items() if k != "total"},
-            "counts": _counts(stats) | {"max_shots": stats["settings"]["max_shots"]},
-            "objects": _read_corners(bpy, ATTRIBUTE, emitters=case.get("emitters"))}
+    return counts | {key: stats["settings"][key] for key in ("patch_size", "rays_per_form_factor", "tolerance",
+                                                             "max_shots")}
 
 
 def _case_cycles(bpy, _package, case: dict) -> dict:
