@@ -493,6 +493,16 @@ def run(labelled: list[tuple[str, dict]], start: float) -> dict[str, dict]:
     return results
 
 
+def driver_parser(doc: str, samples: int, quick_samples: int) -> argparse.ArgumentParser:
+    """The options bench/fine_mesh.py and bench/sponza.py share: --samples, --quick, --from-results."""
+    parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    parser.add_argument("--samples", type=int, help=f"Cycles' highest samples (default {samples}; "
+                        f"{quick_samples} with --quick)")
+    parser.add_argument("--quick", action="store_true", help="a few cheap bakes, to try the script")
+    parser.add_argument("--from-results", type=Path, metavar="JSON", help="report a saved run again")
+    return parser
+
+
 def save_results(data: dict, path: Path) -> None:
     """A run's raw results as JSON at ``path``, for ``--from-results``."""
     path.parent.mkdir(parents=True, exist_ok=True)

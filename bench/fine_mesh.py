@@ -17,7 +17,6 @@ build/fine_mesh/results.json (``--from-results`` reports them again without baki
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import statistics
@@ -28,7 +27,7 @@ from pathlib import Path
 
 import machine
 import numpy as np
-from cycles import ladder, run, save_results, write_report
+from cycles import driver_parser, ladder, run, save_results, write_report
 from cycles_headline import seconds_at
 from cycles_metrics import Corners, nrmse, pct, seed_noise, table, without_noise
 from cycles_worker import REPO
@@ -206,11 +205,7 @@ def _sizes(counts: dict) -> str:
 
 
 def main(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--samples", type=int, help=f"Cycles' highest samples (default {SAMPLES}; "
-                        f"{QUICK_SAMPLES} with --quick)")
-    parser.add_argument("--quick", action="store_true", help="a few bakes, to try the script")
-    parser.add_argument("--from-results", type=Path, metavar="JSON", help="report a saved run again")
+    parser = driver_parser(__doc__, SAMPLES, QUICK_SAMPLES)
     parser.add_argument("--reuse-cycles", type=Path, metavar="JSON", help="bake ours only; Cycles' bakes "
                         "from a saved run (the report says so)")
     options = parser.parse_args(argv)

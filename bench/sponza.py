@@ -14,7 +14,6 @@ docs/sponza.md (``--quick``: build/sponza/sponza.md) and the raw results, build/
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import statistics
@@ -25,7 +24,7 @@ from pathlib import Path
 
 import machine
 import numpy as np
-from cycles import ladder, run, save_results, write_report
+from cycles import driver_parser, ladder, run, save_results, write_report
 from cycles_headline import seconds_at
 from cycles_metrics import pct, seed_noise, table, without_noise
 from cycles_worker import REPO
@@ -182,11 +181,7 @@ def report(data: dict) -> str:
 
 
 def main(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--samples", type=int, help=f"Cycles' highest samples (default {SAMPLES}; "
-                        f"{QUICK_SAMPLES} with --quick)")
-    parser.add_argument("--quick", action="store_true", help="a few cheap bakes, to try the script")
-    parser.add_argument("--from-results", type=Path, metavar="JSON", help="report a saved run again")
+    parser = driver_parser(__doc__, SAMPLES, QUICK_SAMPLES)
     options = parser.parse_args(argv)
     if options.from_results:
         data = json.loads(options.from_results.read_text())
