@@ -112,8 +112,7 @@ def _counts(stats: dict) -> dict:
     counts = {key: stats.get(key) for key in ("triangles", "panels", "patches", "nodes", "shots", "iterations",
                                               "rays_cast", "unshot_fraction", "error_bound", "error_estimate",
                                               "refinements")}
-    return counts | {key: stats["settings"][key] for key in ("patch_size", "rays_per_form_factor", "tolerance",
-                                                             "max_shots")}
+    return counts | {key: stats["settings"][key] for key in ("patch_size", "rays_per_form_factor", "tolerance")}
 
 
 def _case_cycles(bpy, _package, case: dict) -> dict:
