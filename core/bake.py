@@ -9,17 +9,19 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from . import estimate, nearfield, refine, simplify, solvers, touching
+from . import estimate, montecarlo, nearfield, refine, simplify, solvers, touching
 from .discretize import Discretization, discretize
 from .formfactors import METHODS, FormFactorEngine
 from .lights import DirectLighting
 from .progress import Progress, ProgressCallback
 from .raycast import check_ray_count
 from .scene import Scene
+from .visibility import Visibility
 
 AUTO_PATCH_DIVISIONS = 8  # default patch size: the scene's extent over this (the PREVIEW preset's)
 COARSE_TOLERANCE = 10  # a level that will be refined stops at this times the tolerance
 NEAR_FIELD_FROM = 0.97  # the progress fraction where the near-field correction starts
+MONTE_CARLO_FROM = 0.5  # with monte_carlo_rays, the share of the solve's progress the shots take
 
 
 @dataclass(frozen=True)
@@ -36,7 +38,13 @@ class BakeSettings:
     tolerance : stop when the estimated fraction of light not yet distributed (progressive) or
         the bound on the relative error (Jacobi, Gauss-Seidel) is below this.
     ambient : progressive only: add the ambient estimate of the light not yet shot.
-    max_shots : progressive refinement stops after this many shots (None: when converged).
+    max_shots : progressive refinement stops after this many shots (None: when converged; with
+        ``monte_carlo_rays``, once every emitter has shot).
+    monte_carlo_rays : progressive only: what is left unshot when the shots stop is carried by
+        Monte Carlo (``montecarlo``) instead of the ambient term: rays / 16 particles per patch,
+        then this many final-gather rays per vertex (a perfect square; 0: off). Every emitting
+        patch shoots first, whatever ``max_shots`` says, so direct light and its shadows stay
+        exact. For large scenes, where converging takes a shot per patch.
     max_iterations : Jacobi and Gauss-Seidel stop after this many sweeps.
     memory_budget : bytes the explicit matrix of Jacobi / Gauss-Seidel may take.
     column_cache : bytes of form-factor columns progressive refinement may keep for reshooting.
@@ -76,6 +84,7 @@ class BakeSettings:
     near_field: bool = True
     probe_rays: bool = True
     merge_flat: bool = True
+    monte_carlo_rays: int = 0
 
     def __post_init__(self) -> None:
         if self.patch_size is not None and not (math.isfinite(self.patch_size) and self.patch_size > 0):
@@ -88,6 +97,8 @@ class BakeSettings:
             if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 0:
                 raise ValueError(f"{name} must be a non-negative integer, got {getattr(self, name)}")
         check_ray_count(self.rays_per_form_factor)
+        if self.monte_carlo_rays:
+            montecarlo.check_gather_rays(self.monte_carlo_rays)
         if int(self.refinement_levels) != self.refinement_levels or not 0 <= self.refinement_levels <= 8:
             raise ValueError(f"refinement_levels must be an integer from 0 to 8, got {self.refinement_levels}")
         if not (math.isfinite(self.refinement_threshold) and self.refinement_threshold > 0):
@@ -167,6 +178,9 @@ def bake(
     level = _Level(engine, solver, settings, channels, node_direct)
     levels = settings.refinement_levels
     end = NEAR_FIELD_FROM if settings.near_field else 1.0
+    monte_carlo_from = end
+    if solver == "progressive" and settings.monte_carlo_rays:
+        end, monte_carlo_from = start + MONTE_CARLO_FROM * (end - start), end
     span = (end - start) / (1 + levels)
     previous_colors = None
     refinements = []
@@ -199,6 +213,10 @@ def bake(
         colors = mesh.node_emission[:, :channels] + mesh.node_reflectance[:, :channels] * node_lighting
         change = None if previous_colors is None else estimate.level_change(mesh, colors, previous_colors)
         previous_colors = colors
+    noise = None
+    if solver == "progressive" and settings.monte_carlo_rays and not level.stats["converged"]:
+        radiosity, node_lighting, noise = level.monte_carlo(stages, end, monte_carlo_from, seconds)
+        colors = mesh.node_emission[:, :channels] + mesh.node_reflectance[:, :channels] * node_lighting
     near_stats = None
     if settings.near_field:
         clock = time.perf_counter()
@@ -233,7 +251,10 @@ def bake(
     stages.report(1.0, "done", force=True)
 
     solve_stats = level.stats
-    left = estimate.solver_error(mesh, radiosity, solve_stats)
+    if noise is None:
+        left = estimate.solver_error(mesh, radiosity, solve_stats)
+    else:  # the light not shot is distributed, up to the final gather's noise
+        left = estimate.monte_carlo_error(mesh, colors, mesh.node_reflectance[:, :channels] * noise)
     stats = {
         "method": method,
         "solver": solver,
@@ -306,12 +327,15 @@ class _Level:
                 self.state = solvers.ShootingState.start(
                     sources, self.node_direct if nodes_receive else np.zeros((0, self.channels)))
             stages.stage("shooting", begin, end if nodes_receive else begin + 0.8 * (end - begin))
+            max_shots, first = settings.max_shots, None
+            if settings.monte_carlo_rays:  # the emitters shoot, then the rest is left to montecarlo
+                max_shots, first = max_shots or 0, mesh.patch_emission.any(axis=1)
             radiosity, node_lighting, stats = solvers.progressive(
                 engine.shooting_columns, mesh.patch_areas, mesh.patch_reflectance[:, : self.channels], sources,
                 np.ones_like(self.node_direct) if nodes_receive else None,
                 self.node_direct if nodes_receive else None,
-                tolerance=tolerance, ambient=settings.ambient, max_shots=settings.max_shots,
-                cache_bytes=settings.column_cache, report=stages.report, state=self.state,
+                tolerance=tolerance, ambient=settings.ambient, max_shots=max_shots,
+                cache_bytes=settings.column_cache, report=stages.report, state=self.state, first=first,
             )
             self.extra_bytes = max(self.extra_bytes, stats["cached_columns"] * 8 * (mesh.patch_count + mesh.node_count))
             seconds["solve"] = seconds.get("solve", 0.0) + _lap(clock)[0]
@@ -323,6 +347,36 @@ class _Level:
             node_lighting = self._gather(radiosity, stages, begin + 0.7 * (end - begin), end, seconds)
         self.stats = stats
         return radiosity, node_lighting
+
+    def monte_carlo(self, stages: Progress, begin: float, end: float, seconds: dict):
+        """Patch radiosity (P, C), the light arriving at the nodes (N, C) and its standard error
+        (N, C; None with the hemicube): the shots so far, plus what the light left unshot adds with all its bounces,
+        X = U + rho F X, by particle tracing on the patches and a final gather at the nodes
+        (``montecarlo``; with the hemicube, the nodes gather the result by hemicube instead)."""
+        engine, settings, state = self.engine, self.settings, self.state
+        clock = time.perf_counter()
+        mesh = engine.mesh
+        patch_count, front = mesh.patch_count, mesh.front_patch_count
+        visibility = engine.visibility
+        if len(visibility.triangle_normals) != front:  # refined: the rays' triangles must be the patches
+            visibility = Visibility(mesh.patch_corners[:front], two_sided=mesh.back_of_front >= 0,
+                                    owners=mesh.patch_triangle[:front])
+        middle = (begin + end) / 2
+        stages.stage("tracing particles", begin, middle)
+        particles = int(patch_count * settings.monte_carlo_rays * montecarlo.PARTICLES_PER_RAY)
+        future = montecarlo.trace(mesh, visibility, state.unshot, mesh.patch_reflectance[:, : self.channels],
+                                  particles, settings.seed, stages.report)
+        radiosity = state.radiosity[:patch_count] - state.unshot + future
+        self.stats["monte_carlo"] = {"particles": particles, "gather_rays": settings.monte_carlo_rays}
+        if engine.method == "hemicube":
+            seconds["monte_carlo"], _ = _lap(clock)
+            node_lighting = self._gather(radiosity, stages, middle, end, seconds)
+            return radiosity, node_lighting, None  # the estimate keeps the unshot light's bound
+        stages.stage("final gather", middle, end)
+        gathered = montecarlo.gather(mesh, visibility, mesh.node_points, mesh.node_normals, future,
+                                     settings.monte_carlo_rays, settings.seed, stages.report)
+        seconds["monte_carlo"], _ = _lap(clock)
+        return radiosity, state.radiosity[patch_count:] + gathered.light, gathered.standard_error
 
     def _gather(self, radiosity, stages: Progress, begin: float, end: float, seconds: dict) -> np.ndarray:
         clock = time.perf_counter()

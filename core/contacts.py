@@ -46,11 +46,19 @@ def pieces(corners: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def coplanar_overlaps(corners: np.ndarray, owners: np.ndarray) -> np.ndarray:
-    """(T,) bool: whether another triangle (of another owner) lies in each triangle's plane
-    (within CONTACT_TOLERANCE of its size) and overlaps its inside (z-fighting faces, a card's two
-    faces): neighbours that only share edges or corners do not count. Separating axes in the
-    plane: the two overlap unless the six edge normals part their projections by more than the
-    tolerance."""
+    """(T,) bool: whether another triangle (of another owner) lies in each triangle's plane and
+    overlaps its inside (``coplanar_overlap_pairs``)."""
+    result = np.zeros(len(corners), dtype=bool)
+    result[coplanar_overlap_pairs(corners, owners)[0]] = True
+    return result
+
+
+def coplanar_overlap_pairs(corners: np.ndarray, owners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs (a, b) of triangles, each pair both ways, where b (of another owner than a) lies in
+    a's plane (within CONTACT_TOLERANCE of its size) and overlaps its inside (z-fighting faces, a
+    card's two faces): neighbours that only share edges or corners do not count. Separating axes
+    in the plane: the two overlap unless the six edge normals part their projections by more
+    than the tolerance."""
     areas, normals = areas_and_normals(corners)
     valid = np.flatnonzero(areas > 0)
     first, second = _touching_boxes(corners[valid])
@@ -71,9 +79,7 @@ def coplanar_overlaps(corners: np.ndarray, owners: np.ndarray) -> np.ndarray:
             apart = (project_a.max(axis=1) <= project_b.min(axis=1) + tolerance) | \
                 (project_b.max(axis=1) <= project_a.min(axis=1) + tolerance)
             overlap &= ~apart
-    result = np.zeros(len(corners), dtype=bool)
-    result[a[overlap]] = True
-    return result
+    return a[overlap], b[overlap]
 
 
 def _contact_lines(corners: np.ndarray, degenerate: np.ndarray) -> dict[int, list[tuple[np.ndarray, np.ndarray]]]:

@@ -29,10 +29,14 @@ if TYPE_CHECKING:
 DEGENERATE_AREA_RATIO = 1e-14
 # Vertices closer than this fraction of the scene's extent are one vertex for node merging.
 WELD_TOLERANCE = 1e-9
-# A node is evaluated this fraction of the way from its vertex towards the centre of its faces,
-# inside its own surface (as Cycles bakes a corner slightly inside the corner's face): at the
-# vertex itself, a surface touching it is seen exactly edge-on and its form factor is undefined.
-NODE_INSET = 1e-3
+# A node is evaluated this fraction of the scene's extent from its vertex towards the centre of its
+# faces, inside its own surface, as Cycles bakes a corner 1e-4 x max(1, |coordinates|) inside the
+# corner's face (../shared/CYCLES.md), but scaled with the scene: at the vertex itself a surface
+# touching it is seen exactly edge-on, and a ray leaving it starts on every face that meets there.
+# On Sponza (extent 38 m: 1.5 mm, Cycles' 1.5 mm at 15 m from the origin) a bake is 15.5 % from
+# Cycles' answer against 19.3 % at 1e-3 of the way to the faces' centre (0.02 mm on its 3 cm
+# mouldings); on the sample Cornell box it changes nothing (0.586 % against 0.585 %).
+NODE_INSET = 4e-5
 MAX_PATCHES = 4_000_000
 # An emitter (a connected set of emitting triangles) is split finer than the patch size until it
 # has raycast.MIN_LIGHT_PIECES patches, unless the emitters so split would then be more than this
@@ -219,7 +223,7 @@ def _split_triangles(corners: np.ndarray, divisions: np.ndarray) -> dict[str, np
 def _receiver_nodes(scene: Scene, crease_angle: float,
                     corner_points: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Nodes of the corners of ``scene``'s triangles, evaluated at ``corner_points`` (T, 3, 3)
-    (default: the corners themselves) moved NODE_INSET towards their faces."""
+    (default: the corners themselves) moved into their faces (``inset``)."""
     corners = triangle_corners(scene.vertices, scene.triangles)
     areas, normals = areas_and_normals(corners)
     degenerate = areas <= DEGENERATE_AREA_RATIO * longest_edges(corners) ** 2
@@ -250,12 +254,21 @@ def _receiver_nodes(scene: Scene, crease_angle: float,
     corner_node[valid_corners] = corner_group
     _borrow_neighbour_nodes(corner_node, weld.ravel(), scene.material[np.arange(triangle_count * 3) // 3])
     return {
-        "node_points": positions + NODE_INSET * towards_faces,
+        "node_points": positions + inset(towards_faces, scene.extent),
         "node_normals": node_normals,
         "node_reflectance": mean(scene.reflectance[triangle_of]),
         "node_emission": mean(scene.emission[triangle_of]),
         "corner_node": corner_node.reshape(triangle_count, 3),
     }
+
+
+def inset(towards_faces: np.ndarray, extent: float) -> np.ndarray:
+    """(N, 3) the step from each vertex to where its node is evaluated: NODE_INSET x extent
+    along ``towards_faces`` (N, 3) (towards the centre of the node's faces, in its tangent
+    plane), at most half the way there (zero where the faces surround the vertex)."""
+    length = np.linalg.norm(towards_faces, axis=1, keepdims=True)
+    step = np.minimum(NODE_INSET * extent, 0.5 * length)
+    return np.divide(towards_faces * step, length, out=np.zeros_like(towards_faces), where=length > 0)
 
 
 def weld_corners(corners: np.ndarray, extent: float) -> np.ndarray:

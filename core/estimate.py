@@ -50,6 +50,13 @@ def solver_error(mesh: Discretization, radiosity: np.ndarray, solve_stats: dict)
     return float(solve_stats["error_bound"] * np.abs(radiosity).max() / mean)
 
 
+def monte_carlo_error(mesh: Discretization, colors: np.ndarray, standard_error: np.ndarray) -> float:
+    """The Monte Carlo remainder's part (``montecarlo``): the RMS of the nodes' standard errors
+    (N, C) over the mean colour of the nodes that emit nothing. It counts each node's own
+    sampling spread, and through it the noise of the patches it reads; not the blur of pooling."""
+    return relative_rms(standard_error, colors, ~mesh.node_emission.any(axis=1))
+
+
 def relative_rms(difference: np.ndarray, colors: np.ndarray, quiet: np.ndarray) -> float:
     """sqrt(mean |difference|^2) / mean |colors| over rows ``quiet`` (all rows if none is)."""
     chosen = quiet if quiet.any() else np.ones_like(quiet)

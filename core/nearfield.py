@@ -32,7 +32,7 @@ import numpy as np
 
 from . import parallel, spatial
 from .analytic import point_to_triangle
-from .discretize import NODE_INSET, Discretization
+from .discretize import Discretization, inset
 from .geometry import barycentric_grid, longest_edges
 from .refine import radiosity_scale
 from .scene import Scene
@@ -118,7 +118,7 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
     owner_patch = np.repeat(needed, 3).reshape(-1, 3)[missing][first]
     owner_corner = np.tile(np.arange(3), (len(needed), 1))[missing][first]
     corners = mesh.patch_corners[owner_patch, owner_corner]
-    points = corners + NODE_INSET * (mesh.patch_centroids[owner_patch] - corners)
+    points = corners + inset(mesh.patch_centroids[owner_patch] - corners, scene.extent)
     normals = mesh.patch_normals[owner_patch]
     # the interpolation nodes are corrected by the patches whose corners all have a node
     corner_receiver = np.where(corner_output >= 0, corner_output, slot[corner_key])

@@ -64,6 +64,7 @@ def progressive(
     batch: int = 16,
     report: Report = _quiet,
     state: ShootingState | None = None,
+    first: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Progressive refinement (Cohen, Chen, Wallace and Greenberg 1988): repeatedly shoot the
     patch q with the most unshot power, A_q sum_c |U_q,c| / L_c with L_c all the light of
@@ -82,6 +83,8 @@ def progressive(
     balance of a closed room at rho = 0.9999 by 3e-4.) With the brightest shooter, every patch
     within TOGETHER of its unshot power shoots too, in one product. ``state`` (ShootingState)
     resumes an earlier solve and is updated in place; without it the solve starts from B = U = E.
+    ``first`` (P,) bool: patches that shoot before any other, and before ``max_shots`` may stop
+    the solve (the emitters, when what is left goes to ``montecarlo``).
 
     Stops when, in every channel, the light still unshot, with all its future bounces in a
     closed scene, sum A |U| / (1 - rho_mean), is at most ``tolerance`` of all the light,
@@ -120,8 +123,10 @@ def progressive(
         return float(shares.max()), light
 
     left, light = undistributed()
-    while state.shots < limit and left > tolerance:
+    while (state.shots < limit or _pending(unshot, first)) and left > tolerance:
         power = areas * (np.abs(unshot) / np.where(light > 0, light, 1.0)).sum(axis=1)
+        if _pending(unshot, first):
+            power = np.where(first, power, 0.0)
         source = int(np.argmax(power))
         # the patches within TOGETHER of the brightest shoot with it, in one product (all of them,
         # so that ties in a symmetric scene are not broken by rounding, unless the columns would
@@ -172,6 +177,11 @@ def progressive(
         "captured_fraction": captured,
         "cached_columns": len(cache),
     }
+
+
+def _pending(unshot: np.ndarray, first: np.ndarray | None) -> bool:
+    """Whether a patch of ``first`` still has light to shoot."""
+    return first is not None and bool(unshot[first].any())
 
 
 def _bound_factor(matrix: np.ndarray, reflectance: np.ndarray) -> float:

@@ -1,7 +1,7 @@
 """Vertex colours read at the right place on the patches they touch.
 
 A node where surfaces meet (a block's corner standing on the floor, a wall's foot) is evaluated
-NODE_INSET of the way into its own face, micrometres from the patch across the edge. From there
+NODE_INSET of the extent into its own face, a hair from the patch across the edge. From there
 almost all of that patch's form factor comes from within a few node heights of the node's foot
 on it. The near field (``nearfield``) reads the patch's linear interpolant of its corner colours
 at the kernel-weighted centroid of a 4 x 4 split, which at this range puts a few percent of the

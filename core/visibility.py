@@ -13,7 +13,7 @@ import threading
 
 import numpy as np
 
-from .contacts import coplanar_overlaps
+from .contacts import coplanar_overlap_pairs
 from .geometry import areas_and_normals
 from .numpy_tracer import NumpyTracer
 
@@ -51,8 +51,9 @@ class Visibility:
     two_sided : (P,) bool, which of them have two faces (none unless given): ``receivers`` only.
     owners : (P,) int, the surface each belongs to (by default each its own): a ray aimed at a
         surface is not blocked by the surface itself (``raycast``).
-    coplanar_overlaps : (P,) bool, whether a triangle of another owner lies over it in its plane
-        (``contacts.coplanar_overlaps``).
+    coplanar_pairs : (a, b), each b a triangle of another owner lying over a in its plane, each
+        pair both ways (``contacts.coplanar_overlap_pairs``).
+    coplanar_overlaps : (P,) bool, whether a triangle has any.
     """
 
     def __init__(self, corners: np.ndarray, backend: str | None = None, two_sided: np.ndarray | None = None,
@@ -79,7 +80,9 @@ class Visibility:
         self.triangle_normals = areas_and_normals(np.asarray(corners, dtype=np.float64))[1]
         self.two_sided = np.zeros(len(unit_corners), dtype=bool) if two_sided is None else np.asarray(two_sided, bool)
         self.owners = np.arange(len(unit_corners)) if owners is None else np.asarray(owners)
-        self.coplanar_overlaps = coplanar_overlaps(np.asarray(corners, dtype=np.float64), self.owners)
+        self.coplanar_pairs = coplanar_overlap_pairs(np.asarray(corners, dtype=np.float64), self.owners)
+        self.coplanar_overlaps = np.zeros(len(unit_corners), dtype=bool)
+        self.coplanar_overlaps[self.coplanar_pairs[0]] = True
         # n . x of each triangle's plane in unit space, float64 (``raycast`` tells coplanar faces apart)
         self.unit_plane_offsets = (self.triangle_normals * unit_corners[:, 0].astype(np.float64)).sum(axis=1)
         if backend == "embree":
