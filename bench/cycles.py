@@ -33,6 +33,9 @@ import numpy as np
 from cycles_metrics import LUMINANCE, TOUCH, Corners, nrmse, pct, rgb, seed_noise, table, touching, without_noise
 from cycles_worker import ATTRIBUTE, EMITTERS, REPO, SURFACES, VARIANTS, run_case
 
+sys.path.insert(0, str(REPO))
+from core.discretize import NODE_INSET  # noqa: E402
+
 # What a run writes, in docs/ (in build/cycles-quick/ with --quick, so trying the script leaves the
 # committed files alone), and the raw results, in build/ (read back by --from-results).
 DOCS, QUICK_DOCS = REPO / "docs", REPO / "build" / "cycles-quick"
@@ -51,7 +54,7 @@ CHECK_SAMPLES = 16  # per-object and all-at-once bakes compared at this many sam
 PICTURE_SAMPLES = 256  # the Cycles render for the README
 QUICK_PICTURE_SAMPLES = 16
 PICTURE_LIMIT = 300_000  # bytes per PNG
-NODE_INSETS = (1e-4, 1e-2)  # our node placement, moved either way from core.discretize.NODE_INSET (1e-3)
+NODE_INSETS = (NODE_INSET / 10, NODE_INSET * 10)  # our node placement, moved either way from core's
 CORNER_INSET = 1e-4  # Cycles bakes a corner this x max(1, |coords|) inside its face (CYCLES.md)
 
 
@@ -290,7 +293,8 @@ def _compared(a: Analysis) -> list[str]:
         f"{CORNER_INSET:g} x max(1, |coords|) inside the corner's own face, and seeds its random numbers by the "
         "vertex index, so the corners of one vertex share their noise. Our nodes (one per vertex, material and "
         "smooth normal; faces meeting at more than the 30 degree crease angle do not share one) are evaluated "
-        "1e-3 of the way from the vertex towards the centre of their faces (core/discretize.py NODE_INSET). "
+        f"{NODE_INSET:g} of the scene's extent from the vertex towards the centre of their faces, at most half "
+        "the way (core/discretize.py NODE_INSET). "
         "Both are, in effect, the value at the vertex; neither is a mean over an area.",
         "- NRMSE = RMS(values - reference) / mean(reference), over every corner and R, G, B channel of the "
         "non-emitting meshes (per corner, as baked; not area weighted). Cycles' noise: RMS(seed 1 - seed 2) / "
@@ -360,7 +364,7 @@ def _variants(a: Analysis) -> list[str]:
         f"{a.ours[0]['settings']['preset']} run; Cycles: {a.twin['samples']} samples, seed {SEEDS[0]}, so the same "
         "random numbers): NRMSE against the reference, the largest corner difference to the twin, and the surfaces' "
         "luminance ratios to the reference. The node inset is set in the worker process "
-        "(`core.discretize.NODE_INSET`, 1e-3 in the code).",
+        f"(`core.discretize.NODE_INSET`, {NODE_INSET:g} of the extent in the code).",
         "",
         table(["bake", "changed", "NRMSE vs the reference", "largest difference to the twin",
                *(f"`{name}`" for name in SURFACES)], a.variant_rows()),

@@ -87,6 +87,8 @@ def describe(stats: dict, objects: int, prepared: Prepared) -> str:
         count, unit = (stats["shots"], "shot") if "shots" in stats else (stats["iterations"], "sweep")
         work = f"{count:,} {unit}{'' if count == 1 else 's'}"
         stopped = f", stopped after {work}"
+        if "monte_carlo" in stats:
+            stopped = f", {work} then Monte Carlo ({stats['monte_carlo']['gather_rays']:,} rays per vertex)"
     return (f"Baked {output} into '{prepared.attribute}' on {objects} object(s): {stats['triangles']:,} triangles"
             f"{merged}, {stats['patches']:,} patches, {stats['nodes']:,} vertex colours, "
             f"{stats['lights']} light object(s), {stats['seconds']['total']:.1f} s{stopped}{left_text}")

@@ -46,7 +46,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--resolution", type=int, help="hemicube resolution (sets --preset custom)")
     parser.add_argument("--tolerance", type=float, help="(sets --preset custom)")
     parser.add_argument("--max-shots", type=int, metavar="N", help="progressive: stop after N shots, the rest as the "
-                        "ambient term (0: until the tolerance is met)")
+                        "ambient term or by Monte Carlo (0: until the tolerance is met; with Monte Carlo, once "
+                        "every emitter has shot)")
+    parser.add_argument("--monte-carlo-rays", type=int, metavar="N", help="progressive: carry the light not yet "
+                        "shot by Monte Carlo with N final-gather rays per vertex: 16, 64, 256 or 1024 (0: the "
+                        "ambient term)")
     parser.add_argument("--lighting-only", action="store_true", help="write the lighting, not the full radiosity")
     parser.add_argument("--attribute", metavar="NAME", help="colour attribute to write (default: the file's, "
                         "'Radiosity' when unset)")
@@ -75,8 +79,8 @@ def main(argv: list[str]) -> int:
 def run(input: str | None = None, output: str | None = None, overwrite: bool = False, render: str | None = None,
         preset: str | None = None, method: str | None = None, solver: str | None = None,
         patch_size: float | None = None, rays: int | None = None, resolution: int | None = None,
-        tolerance: float | None = None, max_shots: int | None = None, lighting_only: bool = False,
-        attribute: str | None = None, quiet: bool = True) -> Outcome:
+        tolerance: float | None = None, max_shots: int | None = None, monte_carlo_rays: int | None = None,
+        lighting_only: bool = False, attribute: str | None = None, quiet: bool = True) -> Outcome:
     """Bake the open (or ``input``) file's scene, then save it to ``output`` (or over itself
     with ``overwrite``) and render the colours to ``render``. ValueError for bad input; the
     open file is not saved anywhere unless asked."""
@@ -87,8 +91,8 @@ def run(input: str | None = None, output: str | None = None, overwrite: bool = F
     source = bpy.data.filepath
     target = _target(source, output, overwrite, render)
     scene = bpy.context.scene
-    _apply(scene.radiosity, preset, method, solver, patch_size, rays, resolution, tolerance, max_shots, lighting_only,
-           attribute)
+    _apply(scene.radiosity, preset, method, solver, patch_size, rays, resolution, tolerance, max_shots,
+           monte_carlo_rays, lighting_only, attribute)
     depsgraph = bpy.context.evaluated_depsgraph_get()
     prepared = prepare(scene, depsgraph)
     result = run_straight(prepared, echo=not quiet)
@@ -122,8 +126,8 @@ def _target(source: str, output: str | None, overwrite: bool, render: str | None
     return output
 
 
-def _apply(settings, preset, method, solver, patch_size, rays, resolution, tolerance, max_shots, lighting_only,
-           attribute):
+def _apply(settings, preset, method, solver, patch_size, rays, resolution, tolerance, max_shots, monte_carlo_rays,
+           lighting_only, attribute):
     """Command-line options onto ``scene.radiosity`` (so the saved file records them)."""
     if patch_size is not None and not patch_size > 0:
         raise UsageError(f"--patch-size must be a positive length, got {patch_size}")
@@ -142,13 +146,13 @@ def _apply(settings, preset, method, solver, patch_size, rays, resolution, toler
         if value is not None:
             setattr(settings, name, value)
     if rays is not None:
-        if str(rays) not in {item.identifier for item in settings.bl_rna.properties["rays"].enum_items}:
-            raise UsageError(f"--rays must be one of 1, 4, 9, 16, 36, 64, 144, 256, got {rays}")
-        settings.rays = str(rays)
+        _set_choice(settings, "rays", rays, "--rays")
     if max_shots is not None:
         if max_shots < 0:
             raise UsageError(f"--max-shots must be 0 (no limit) or more, got {max_shots}")
         settings.max_shots = max_shots
+    if monte_carlo_rays is not None:
+        _set_choice(settings, "monte_carlo_rays", monte_carlo_rays, "--monte-carlo-rays")
     if method is not None:
         settings.method = method
     if solver is not None:
@@ -157,6 +161,14 @@ def _apply(settings, preset, method, solver, patch_size, rays, resolution, toler
         settings.output = "LIGHTING"
     if attribute is not None:
         settings.attribute_name = attribute
+
+
+def _set_choice(settings, name: str, value: int, option: str) -> None:
+    """Set the number-named enum ``name`` to ``value``, or say which values ``option`` takes."""
+    choices = [item.identifier for item in settings.bl_rna.properties[name].enum_items]
+    if str(value) not in choices:
+        raise UsageError(f"{option} must be one of {', '.join(choices)}, got {value}")
+    setattr(settings, name, str(value))
 
 
 _handle = None
@@ -172,3 +184,4 @@ def unregister() -> None:
     if _handle is not None:
         bpy.utils.unregister_cli_command(_handle)
         _handle = None
+

@@ -39,9 +39,10 @@ def draw_advanced(layout, settings) -> None:
     layout.use_property_decorate = False
     layout.prop(settings, "method")
     layout.prop(settings, "solver")
-    row = layout.row()
-    row.active = settings.solver == "progressive"
-    row.prop(settings, "max_shots")
+    column = layout.column()
+    column.active = settings.solver == "progressive"
+    column.prop(settings, "max_shots")
+    column.prop(settings, "monte_carlo_rays")
     layout.prop(settings, "ambient")
     layout.prop(settings, "merge_flat")
     layout.prop(settings, "two_sided")

@@ -15,6 +15,10 @@ PRESET_ITEMS = [(key, preset.label, preset.description) for key, preset in PRESE
     ("CUSTOM", "Custom", "The knobs below"),
 ]
 RAY_ITEMS = [(str(n), str(n), f"{n} visibility rays per form factor") for n in (1, 4, 9, 16, 36, 64, 144, 256)]
+MONTE_CARLO_RAYS = (16, 64, 256, 1024)
+MONTE_CARLO_ITEMS = [("0", "Off", "The light not yet shot when the shots stop is added as the ambient term")] + [
+    (str(n), str(n), f"{n} final-gather rays per vertex, {n // 16} particle(s) per patch") for n in MONTE_CARLO_RAYS
+]
 
 
 class RadiositySettings(bpy.types.PropertyGroup):
@@ -74,8 +78,16 @@ class RadiositySettings(bpy.types.PropertyGroup):
     max_shots: bpy.props.IntProperty(
         name="Max Shots", default=0, min=0, soft_max=100_000,
         description="Progressive: stop after this many shots, the light not yet shot added as the ambient term "
-        "(0: shoot until the tolerance is met). For large scenes, where that takes hours: the report's "
-        "estimated error says how much was left",
+        "or carried by Monte Carlo (0: shoot until the tolerance is met; with Monte Carlo, until every "
+        "emitter has shot). For large scenes, where converging takes hours: the report's estimated error "
+        "says how much was left",
+    )
+    monte_carlo_rays: bpy.props.EnumProperty(
+        name="Monte Carlo", items=MONTE_CARLO_ITEMS, default="0",
+        description="Progressive: when the shots stop, carry the light not yet shot, with all its bounces, "
+        "by particles from the patches and a final gather of this many rays at each vertex, instead of "
+        "the ambient term. The emitters shoot first, so direct light and shadows stay exact. For large "
+        "scenes (Sponza: 46 % -> 15 % from Cycles); a little noise, which the estimated error includes",
     )
     ambient: bpy.props.BoolProperty(
         name="Ambient Term", default=True,
@@ -120,7 +132,8 @@ class RadiositySettings(bpy.types.PropertyGroup):
         else:
             knobs = preset_knobs(self.preset, extent)
         knobs |= {"ambient": self.ambient, "crease_angle": math.degrees(self.crease_angle),
-                  "merge_flat": self.merge_flat, "max_shots": self.max_shots or None}
+                  "merge_flat": self.merge_flat, "max_shots": self.max_shots or None,
+                  "monte_carlo_rays": int(self.monte_carlo_rays)}
         return self.method, self.solver, knobs
 
 

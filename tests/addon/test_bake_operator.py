@@ -246,3 +246,21 @@ def test_max_shots_reaches_the_core_and_the_report_says_the_bake_stopped(room):
     assert ", stopped after 3 shots, " in settings.last_report, settings.last_report
     solver_share = float(re.search(r"solver ([\d.e+-]+)%", settings.last_report)[1])
     assert solver_share > 100 * settings.tolerance, settings.last_report
+
+
+def test_monte_carlo_reaches_the_core_after_the_emitters_shoot(room):
+    """"Monte Carlo" (Advanced), off by default: with 256 rays the glowing panel's patches shoot
+    (Max Shots 0), the report says the rest went by Monte Carlo, and the colours stay within 2 %
+    RMS of the bake shot to its tolerance: the floor sees only the panel and the sun, both exact
+    in either bake, so what differs is the little light the floor sends back up (the core's tests,
+    tests/core/test_montecarlo.py, measure the convergence on scenes where it matters)."""
+    settings = bpy.context.scene.radiosity
+    assert settings.monte_carlo_rays == "0"
+    assert bake_in_background() == {"FINISHED"}
+    _, shot = corner_colours(room)
+    settings.monte_carlo_rays = "256"
+    assert bake_in_background() == {"FINISHED"}
+    report = settings.last_report
+    assert re.search(r", \d+ shots? then Monte Carlo \(256 rays per vertex\), ", report), report
+    _, carried = corner_colours(room)
+    assert np.sqrt(((carried - shot) ** 2).mean()) <= 0.02 * np.abs(shot).mean()

@@ -61,6 +61,7 @@ def test_overwrite_only_when_asked(cli, saved_scene):
     (["--output", "x.blend", "--rays", "10"], "--rays must be one of"),
     (["--output", "x.blend", "--patch-size", "-1"], "--patch-size must be a positive length"),
     (["--output", "x.blend", "--max-shots", "-1"], "--max-shots must be 0 (no limit) or more"),
+    (["--output", "x.blend", "--monte-carlo-rays", "100"], "--monte-carlo-rays must be one of 0, 16, 64"),
     (["--output", "x.blend", "--preset", "draft", "--tolerance", "0.1"], "--preset draft fixes the knobs"),
     (["--output", "x.txt"], "must be a .blend file"),
     (["--input", "/nonexistent.blend", "--output", "x.blend"], "no such file"),
@@ -105,3 +106,12 @@ def test_max_shots_is_applied_and_saved_with_the_baked_file(cli, saved_scene, tm
     settings = bpy.context.scene.radiosity
     assert settings.max_shots == 1
     assert ", stopped after 1 shot, " in settings.last_report, settings.last_report
+
+
+def test_monte_carlo_rays_are_applied_and_saved_with_the_baked_file(cli, saved_scene, tmp_path):
+    output = str(tmp_path / "monte_carlo.blend")
+    assert cli.main(["--output", output, "--monte-carlo-rays", "64", "-q"]) == 0
+    bpy.ops.wm.open_mainfile(filepath=output)
+    settings = bpy.context.scene.radiosity
+    assert settings.monte_carlo_rays == "64"
+    assert "then Monte Carlo (64 rays per vertex)" in settings.last_report, settings.last_report
