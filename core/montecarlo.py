@@ -33,6 +33,7 @@ from typing import Callable
 import numpy as np
 
 from . import parallel
+from .spatial import ranks
 from .discretize import Discretization
 from .geometry import barycentric, tangent_frames
 from .visibility import Visibility
@@ -129,8 +130,7 @@ class _Surfaces:
         face lying over it there (``Visibility.coplanar_pairs``) on the side facing the ray, or -1."""
         counts = self._partner_start[triangles + 1] - self._partner_start[triangles]
         ray = np.repeat(np.arange(len(triangles)), counts)
-        within = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)  # 0, 1, .. per ray
-        partner = self._partners[np.repeat(self._partner_start[triangles], counts) + within]
+        partner = self._partners[np.repeat(self._partner_start[triangles], counts) + ranks(counts)]
         side = np.where((directions[ray] * self._normals[partner]).sum(axis=1) < 0, partner,
                         self.mesh.back_of_front[partner])
         weights = barycentric(points[ray], self.mesh.patch_corners[partner])
