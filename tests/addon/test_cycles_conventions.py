@@ -10,8 +10,9 @@ through the operator, against Cycles' conventions (shared/CYCLES.md, measured wi
     world colour C, strength k             rho C k on an open upward plane
 
 The floor cannot see itself, so it shows direct light only and the formulas are exact. Colours
-are evaluated NODE_INSET = 1e-3 of the way into each vertex's faces; on these 0.5 m cells that
-moves a point by 0.35 mm and its value by under 2e-3 (the tolerance, well inside the 1 % asked).
+are evaluated NODE_INSET = 4e-5 of the scene's extent into each vertex's faces; on these scenes of a
+few metres that moves a point by a fraction of a millimetre and its value by under 2e-3 (the
+tolerance, well inside the 1 % asked).
 """
 
 import math

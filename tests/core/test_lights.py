@@ -5,9 +5,9 @@ measured with Blender 5.0.1) and closed forms, on scenes where the exact answer 
     spot    the same times Cycles' cone mask  area   rho * P / (pi A) * F(point -> light)
     sky     rho * C k * (1 - F(point -> what blocks the sky))
 
-Colours are read at the receiver nodes, which sit NODE_INSET (1e-3) of the way from each vertex
-towards its faces' centre: on these grids that moves a node by under 1e-3 of a cell, so values
-at the vertex are matched to 2e-3 relative unless stated.
+Colours are read at the receiver nodes, which sit NODE_INSET (4e-5) of the scene's extent from each
+vertex towards its faces' centre: on these grids that moves a node by under 1e-3 of a cell, so
+values at the vertex are matched to 2e-3 relative unless stated.
 """
 
 import math
