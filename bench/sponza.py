@@ -45,7 +45,7 @@ EMITTERS = ["sky"]  # bench/sponza_blend.py's emitting quad: left out of every c
 # docs/tradeoffs.md): progressive refinement stopped after 300 shots, the rest as the ambient term (the
 # best of 100, 300 and 1,000 shots in the run before Monte Carlo), then the emitters' shots with the rest
 # carried by Monte Carlo at 64, 256 and 1,024 final-gather rays per vertex
-BAKES = {"300 shots, ambient term": {"max_shots": 300},
+BAKES = {"300 shots, ambient term": {"max_shots": 300, "monte_carlo_rays": "0"},
          **{f"Monte Carlo {n}": {"monte_carlo_rays": str(n)} for n in (64, 256, 1024)}}
 QUICK_BAKES = {"Monte Carlo 16": {"monte_carlo_rays": "16"}}
 RAYS = 4

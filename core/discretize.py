@@ -37,6 +37,9 @@ WELD_TOLERANCE = 1e-9
 # Cycles' answer against 19.3 % at 1e-3 of the way to the faces' centre (0.02 mm on its 3 cm
 # mouldings); on the sample Cornell box it changes nothing (0.586 % against 0.585 %).
 NODE_INSET = 4e-5
+# Corner normals (``Scene.corner_normals``) closer than this are one shading normal (float32 normals
+# of one vertex agree to about 1e-7; a sharp edge or a flat face's bend differs by far more).
+SAME_NORMAL = 1e-4
 MAX_PATCHES = 4_000_000
 # An emitter (a connected set of emitting triangles) is split finer than the patch size until it
 # has raycast.MIN_LIGHT_PIECES patches, unless the emitters so split would then be more than this
@@ -229,7 +232,7 @@ def _receiver_nodes(scene: Scene, crease_angle: float,
     degenerate = areas <= DEGENERATE_AREA_RATIO * longest_edges(corners) ** 2
     triangle_count = len(corners)
     weld = weld_corners(corners, scene.extent)  # (T, 3) welded vertex id per corner
-    labels = _smoothing_groups(weld, scene.material, normals, degenerate, crease_angle)
+    labels = _smoothing_groups(weld, scene.material, normals, degenerate, crease_angle, scene.corner_normals)
     valid = ~degenerate
     valid_corners = np.flatnonzero(np.repeat(valid, 3))
     group_ids, corner_group = np.unique(labels.ravel()[valid_corners], return_inverse=True)
@@ -244,7 +247,10 @@ def _receiver_nodes(scene: Scene, crease_angle: float,
             axis=1,
         ) / totals[:, None]
 
-    node_normals = mean(normals[triangle_of])
+    if scene.corner_normals is None:
+        node_normals = mean(normals[triangle_of])
+    else:
+        node_normals = mean(scene.corner_normals.reshape(-1, 3)[valid_corners])
     node_normals /= np.linalg.norm(node_normals, axis=1, keepdims=True)
     positions = np.zeros((group_count, 3))
     positions[corner_group] = (corners if corner_points is None else corner_points).reshape(-1, 3)[valid_corners]
@@ -280,8 +286,10 @@ def weld_corners(corners: np.ndarray, extent: float) -> np.ndarray:
     return np.unique(keys, axis=0, return_inverse=True)[1].reshape(-1, 3)
 
 
-def _smoothing_groups(weld, material, normals, degenerate, crease_angle) -> np.ndarray:
-    """(T, 3) label per corner: corners joined across smooth, same-material shared edges."""
+def _smoothing_groups(weld, material, normals, degenerate, crease_angle, corner_normals=None) -> np.ndarray:
+    """(T, 3) label per corner: corners joined across smooth, same-material shared edges: faces
+    meeting below ``crease_angle``, or with ``corner_normals`` (T, 3, 3) corners whose normals
+    agree within SAME_NORMAL."""
     triangle_count = len(weld)
     start = weld
     end = weld[:, [1, 2, 0]]
@@ -298,7 +306,9 @@ def _smoothing_groups(weld, material, normals, degenerate, crease_angle) -> np.n
     cosine = (normals[tri_a] * normals[tri_b]).sum(axis=1)
     # faces folded back over each other (more than 90 degrees) never share a node: their mean
     # normal would be meaningless (the two sides of a two-sided card cancel exactly)
-    smooth = (material[tri_a] == material[tri_b]) & (cosine >= np.cos(crease_angle) - 1e-12) & (cosine > -1e-9)
+    smooth = (material[tri_a] == material[tri_b]) & (cosine > -1e-9)
+    if corner_normals is None:
+        smooth &= cosine >= np.cos(crease_angle) - 1e-12
     first, second = first[smooth], second[smooth]
     # corner of triangle b at each endpoint of the shared edge: match by welded vertex
     pairs = []
@@ -311,6 +321,9 @@ def _smoothing_groups(weld, material, normals, degenerate, crease_angle) -> np.n
         pairs.append(np.stack([corner_first, match], axis=1))
     pairs = np.concatenate(pairs) if pairs else np.zeros((0, 2), dtype=np.int64)
     pairs = pairs[pairs[:, 1] >= 0]
+    if corner_normals is not None:
+        flat = corner_normals.reshape(-1, 3)
+        pairs = pairs[np.linalg.norm(flat[pairs[:, 0]] - flat[pairs[:, 1]], axis=1) <= SAME_NORMAL]
     return connected_components(triangle_count * 3, pairs).reshape(-1, 3)
 
 

@@ -97,7 +97,8 @@ class _Surfaces:
     def __init__(self, mesh: Discretization, visibility: Visibility) -> None:
         front = mesh.front_patch_count
         if len(visibility.triangle_normals) != front:
-            raise ValueError(f"the rays' triangles must be the {front} front patches, got {len(visibility.triangle_normals)}")
+            raise ValueError(f"the rays' triangles must be the {front} front patches, "
+                             f"got {len(visibility.triangle_normals)}")
         self.mesh, self.visibility = mesh, visibility
         self._normals = mesh.patch_normals[:front]
         self._offsets = (self._normals * mesh.patch_corners[:front, 0]).sum(axis=1)

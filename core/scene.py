@@ -16,6 +16,17 @@ MAX_COORDINATE = 1e50
 MIN_EXTENT = 1e-50
 
 
+def _unit_corner_normals(normals, count: int) -> np.ndarray:
+    """(T, 3, 3) float64 unit normals; ValueError unless finite and of non-zero length."""
+    array = np.array(normals, dtype=np.float64)
+    if array.shape != (count, 3, 3):
+        raise ValueError(f"corner_normals must have shape ({count}, 3, 3), got {array.shape}")
+    length = np.linalg.norm(array, axis=2, keepdims=True)
+    if not np.isfinite(array).all() or (length <= 0).any():
+        raise ValueError("corner_normals must be finite vectors of non-zero length")
+    return array / length
+
+
 def _first_bad(mask: np.ndarray) -> int:
     """Index of the first row where ``mask`` is True (mask reduced over trailing axes)."""
     rows = mask.reshape(mask.shape[0], -1).any(axis=1)
@@ -51,6 +62,11 @@ class Scene:
     two_sided : (T,) bool, optional; a two-sided triangle reflects and emits on both sides
         (as Cycles' Diffuse BSDF and Emission do); the back side is its own surface.
         Default: all one-sided.
+    corner_normals : (T, 3, 3) float, optional; the shading normal at each corner (Blender's
+        corner normals: a flat face's own normal, a smooth face's vertex normal, split at sharp
+        edges). Given, corners share a receiver node only where their normals agree, and the node
+        faces that way, as Cycles shades each corner; the bake's crease angle is then not used.
+        Default: nodes joined across edges below the crease angle.
     lights : point, spot, sun and area lights (``core.lights``); they light the surfaces but
         are not surfaces themselves.
     sky : (3,) float >= 0, the colour x strength of a uniform sky around the scene (Blender's
@@ -63,6 +79,7 @@ class Scene:
     emission: np.ndarray
     material: np.ndarray | None = None
     two_sided: np.ndarray | None = field(default=None)
+    corner_normals: np.ndarray | None = field(default=None)
     lights: tuple = ()
     sky: np.ndarray | None = None
 
@@ -114,6 +131,7 @@ class Scene:
         two_sided = np.zeros(count, bool) if self.two_sided is None else np.array(self.two_sided)
         if two_sided.dtype != bool or two_sided.shape != (count,):
             raise ValueError(f"two_sided must be a bool array of shape ({count},)")
+        corner_normals = None if self.corner_normals is None else _unit_corner_normals(self.corner_normals, count)
         sky = np.zeros(3) if self.sky is None else np.array(self.sky, dtype=np.float64).reshape(-1)
         if sky.shape != (3,) or not np.isfinite(sky).all() or (sky < 0).any():
             raise ValueError(f"sky must be 3 finite numbers >= 0, got {self.sky!r}")
@@ -126,6 +144,7 @@ class Scene:
             ("emission", emission),
             ("material", np.array(material, dtype=np.int64)),
             ("two_sided", two_sided),
+            *([("corner_normals", corner_normals)] if corner_normals is not None else []),
         ):
             value.setflags(write=False)
             object.__setattr__(self, name, value)

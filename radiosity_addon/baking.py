@@ -44,8 +44,8 @@ def prepare(scene, depsgraph) -> Prepared:
     attribute = settings.attribute_name.strip()
     if not attribute:
         raise ValueError("the output attribute name is empty")
-    extraction = extract(depsgraph, settings.two_sided)
-    method, solver, knobs = settings.core_arguments(extraction.scene.extent)
+    extraction = extract(depsgraph, settings.two_sided, shading_normals=settings.vertex_normals == "SHADING")
+    method, solver, knobs = settings.core_arguments(extraction.scene.extent, len(extraction.scene.triangles))
     if default_backend() != "embree":
         extraction.notes.append("Embree is not available here: rays are traced by the slower NumPy ray caster")
     # fail early, before any work, on targets that cannot be written

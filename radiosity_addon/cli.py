@@ -48,9 +48,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--max-shots", type=int, metavar="N", help="progressive: stop after N shots, the rest as the "
                         "ambient term or by Monte Carlo (0: until the tolerance is met; with Monte Carlo, once "
                         "every emitter has shot)")
-    parser.add_argument("--monte-carlo-rays", type=int, metavar="N", help="progressive: carry the light not yet "
-                        "shot by Monte Carlo with N final-gather rays per vertex: 16, 64, 256 or 1024 (0: the "
-                        "ambient term)")
+    parser.add_argument("--monte-carlo-rays", metavar="N", help="progressive: carry the light not yet shot by "
+                        "Monte Carlo with N final-gather rays per vertex: 16, 64, 256 or 1024 (0: the ambient "
+                        "term; auto: 64 for large scenes, the default)")
     parser.add_argument("--lighting-only", action="store_true", help="write the lighting, not the full radiosity")
     parser.add_argument("--attribute", metavar="NAME", help="colour attribute to write (default: the file's, "
                         "'Radiosity' when unset)")
@@ -79,7 +79,7 @@ def main(argv: list[str]) -> int:
 def run(input: str | None = None, output: str | None = None, overwrite: bool = False, render: str | None = None,
         preset: str | None = None, method: str | None = None, solver: str | None = None,
         patch_size: float | None = None, rays: int | None = None, resolution: int | None = None,
-        tolerance: float | None = None, max_shots: int | None = None, monte_carlo_rays: int | None = None,
+        tolerance: float | None = None, max_shots: int | None = None, monte_carlo_rays: str | None = None,
         lighting_only: bool = False, attribute: str | None = None, quiet: bool = True) -> Outcome:
     """Bake the open (or ``input``) file's scene, then save it to ``output`` (or over itself
     with ``overwrite``) and render the colours to ``render``. ValueError for bad input; the
@@ -163,12 +163,13 @@ def _apply(settings, preset, method, solver, patch_size, rays, resolution, toler
         settings.attribute_name = attribute
 
 
-def _set_choice(settings, name: str, value: int, option: str) -> None:
-    """Set the number-named enum ``name`` to ``value``, or say which values ``option`` takes."""
+def _set_choice(settings, name: str, value, option: str) -> None:
+    """Set the enum ``name`` to ``value`` (a number or a name, in any case), or say which values
+    ``option`` takes."""
     choices = [item.identifier for item in settings.bl_rna.properties[name].enum_items]
-    if str(value) not in choices:
-        raise UsageError(f"{option} must be one of {', '.join(choices)}, got {value}")
-    setattr(settings, name, str(value))
+    if str(value).upper() not in choices:
+        raise UsageError(f"{option} must be one of {', '.join(c.lower() for c in choices)}, got {value}")
+    setattr(settings, name, str(value).upper())
 
 
 _handle = None

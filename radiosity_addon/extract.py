@@ -43,6 +43,7 @@ class _Builder:
         self.vertices: list[np.ndarray] = []
         self.triangles: list[np.ndarray] = []
         self.material: list[np.ndarray] = []
+        self.corner_normals: list[np.ndarray] = []
         self.surfaces: list[Surface] = []
         self.surface_index: dict[str, int] = {}
         self.targets: list[MeshTarget] = []
@@ -61,8 +62,11 @@ class _Builder:
         return self.surface_index[key]
 
 
-def extract(depsgraph, two_sided: bool = True) -> Extraction:
-    """Read ``depsgraph`` (evaluated) into an Extraction; ValueError if nothing can be baked."""
+def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True) -> Extraction:
+    """Read ``depsgraph`` (evaluated) into an Extraction; ValueError if nothing can be baked.
+    With ``shading_normals`` the scene carries each corner's normal (Shade Flat / Smooth, sharp
+    edges, custom normals: ``Mesh.corner_normals``), which then decide where vertex colours are
+    shared; without, the bake's crease angle does."""
     builder = _Builder()
     skipped: dict[str, list[str]] = {}
     for instance in depsgraph.object_instances:
@@ -92,6 +96,7 @@ def extract(depsgraph, two_sided: bool = True) -> Extraction:
     scene = Scene(
         np.concatenate(builder.vertices), triangles, reflectance[material], emission[material],
         material=material, two_sided=np.full(len(triangles), two_sided), lights=builder.lights, sky=sky,
+        corner_normals=np.concatenate(builder.corner_normals) if shading_normals else None,
     )
     return Extraction(scene, builder.targets, builder.notes)
 
@@ -108,11 +113,13 @@ def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, is_instance: bool) -> 
         slots = _get(mesh.loop_triangles, "material_index", count, np.int64)
         positions = _get(mesh.vertices, "co", len(mesh.vertices) * 3, np.float64).reshape(-1, 3)
         loop_count = len(mesh.loops)
+        loop_normals = _get(mesh.corner_normals, "vector", loop_count * 3, np.float64).reshape(-1, 3)
     finally:
         obj.to_mesh_clear()
     world = positions @ matrix[:3, :3].T + matrix[:3, 3]
     if np.linalg.det(matrix[:3, :3]) < 0:  # a mirroring transform turns the faces inside out
         corners, loops = corners[:, ::-1], loops[:, ::-1]
+    builder.corner_normals.append(_world_normals(loop_normals[loops], matrix, world[corners]))
     materials = [slot.material for slot in obj.material_slots] or [None]
     ids = np.array([builder.surface(material) for material in materials])
     builder.vertices.append(world)
@@ -168,6 +175,17 @@ def _world_colour(world, notes: list[str]) -> np.ndarray:
     if colour.is_linked or strength.is_linked:
         notes.append(f"world '{world.name}': a textured background is taken as its unlinked colour")
     return np.array(colour.default_value[:3], dtype=np.float64) * float(strength.default_value)
+
+
+def _world_normals(normals: np.ndarray, matrix: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """(T, 3, 3) unit corner normals in world space (by the inverse transpose of ``matrix``); where
+    Blender gives none (a zero-area face), the face's own normal, or +Z if it has none either."""
+    normals = normals @ np.linalg.inv(matrix[:3, :3])
+    face = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    face = np.where(np.linalg.norm(face, axis=1, keepdims=True) > 0, face, [0.0, 0.0, 1.0])
+    length = np.linalg.norm(normals, axis=2, keepdims=True)
+    normals = np.where(np.isfinite(length) & (length > 0), normals / np.where(length > 0, length, 1.0), face[:, None])
+    return normals / np.linalg.norm(normals, axis=2, keepdims=True)
 
 
 def _get(collection, attribute: str, size: int, dtype) -> np.ndarray:

@@ -46,7 +46,10 @@ def draw_advanced(layout, settings) -> None:
     layout.prop(settings, "ambient")
     layout.prop(settings, "merge_flat")
     layout.prop(settings, "two_sided")
-    layout.prop(settings, "crease_angle")
+    layout.prop(settings, "vertex_normals")
+    row = layout.row()
+    row.active = settings.vertex_normals == "CREASE"
+    row.prop(settings, "crease_angle")
     layout.prop(settings, "modified_topology")
 
 

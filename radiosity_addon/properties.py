@@ -7,7 +7,9 @@ import math
 
 import bpy
 
-from ..core.presets import PRESETS, preset_knobs
+from ..core.presets import (
+    LARGE_SCENE_MONTE_CARLO_RAYS, LARGE_SCENE_TRIANGLES, PRESETS, auto_monte_carlo_rays, preset_knobs,
+)
 
 DEFAULT_ATTRIBUTE = "Radiosity"
 
@@ -16,7 +18,11 @@ PRESET_ITEMS = [(key, preset.label, preset.description) for key, preset in PRESE
 ]
 RAY_ITEMS = [(str(n), str(n), f"{n} visibility rays per form factor") for n in (1, 4, 9, 16, 36, 64, 144, 256)]
 MONTE_CARLO_RAYS = (16, 64, 256, 1024)
-MONTE_CARLO_ITEMS = [("0", "Off", "The light not yet shot when the shots stop is added as the ambient term")] + [
+MONTE_CARLO_ITEMS = [
+    ("AUTO", "Auto", f"{LARGE_SCENE_MONTE_CARLO_RAYS} rays from {LARGE_SCENE_TRIANGLES:,} triangles on (a large "
+     "scene would take hours to shoot to the tolerance), off below"),
+    ("0", "Off", "The light not yet shot when the shots stop is added as the ambient term"),
+] + [
     (str(n), str(n), f"{n} final-gather rays per vertex, {n // 16} particle(s) per patch") for n in MONTE_CARLO_RAYS
 ]
 
@@ -83,7 +89,7 @@ class RadiositySettings(bpy.types.PropertyGroup):
         "says how much was left",
     )
     monte_carlo_rays: bpy.props.EnumProperty(
-        name="Monte Carlo", items=MONTE_CARLO_ITEMS, default="0",
+        name="Monte Carlo", items=MONTE_CARLO_ITEMS, default="AUTO",
         description="Progressive: when the shots stop, carry the light not yet shot, with all its bounces, "
         "by particles from the patches and a final gather of this many rays at each vertex, instead of "
         "the ambient term. The emitters shoot first, so direct light and shadows stay exact. For large "
@@ -103,9 +109,20 @@ class RadiositySettings(bpy.types.PropertyGroup):
         name="Two-Sided Surfaces", default=True,
         description="Surfaces reflect and emit on both sides, as in Cycles; off halves the patches",
     )
+    vertex_normals: bpy.props.EnumProperty(
+        name="Vertex Colours",
+        items=[
+            ("SHADING", "Follow Shading", "Faces share a vertex colour where they share a shading normal: flat "
+             "faces get their own, smooth faces share theirs, split at sharp edges (as Cycles bakes them)"),
+            ("CREASE", "Crease Angle", "Faces share a vertex colour unless they meet at more than the crease "
+             "angle, whatever their shading"),
+        ],
+        default="SHADING",
+        description="Where neighbouring faces share a vertex colour and which way it faces",
+    )
     crease_angle: bpy.props.FloatProperty(
         name="Crease Angle", default=0.5235987755982988, min=0.0, max=3.141592653589793, subtype="ANGLE",
-        description="Faces meeting at a sharper angle do not share a vertex colour",
+        description="Crease Angle mode: faces meeting at a sharper angle do not share a vertex colour",
     )
     modified_topology: bpy.props.EnumProperty(
         name="Changed Topology",
@@ -119,8 +136,9 @@ class RadiositySettings(bpy.types.PropertyGroup):
     )
     last_report: bpy.props.StringProperty(name="Last Bake", default="", description="What the last bake did")
 
-    def core_arguments(self, extent: float) -> tuple[str, str, dict]:
-        """(method, solver, knobs) for ``core.bake`` on a scene of bounding-box diagonal ``extent``."""
+    def core_arguments(self, extent: float, triangles: int) -> tuple[str, str, dict]:
+        """(method, solver, knobs) for ``core.bake`` on a scene of bounding-box diagonal ``extent``
+        and ``triangles`` triangles."""
         if self.preset == "CUSTOM":
             knobs = {
                 "patch_size": self.patch_size or None,
@@ -133,7 +151,8 @@ class RadiositySettings(bpy.types.PropertyGroup):
             knobs = preset_knobs(self.preset, extent)
         knobs |= {"ambient": self.ambient, "crease_angle": math.degrees(self.crease_angle),
                   "merge_flat": self.merge_flat, "max_shots": self.max_shots or None,
-                  "monte_carlo_rays": int(self.monte_carlo_rays)}
+                  "monte_carlo_rays": auto_monte_carlo_rays(triangles) if self.monte_carlo_rays == "AUTO"
+                  else int(self.monte_carlo_rays)}
         return self.method, self.solver, knobs
 
 

@@ -249,14 +249,16 @@ def test_max_shots_reaches_the_core_and_the_report_says_the_bake_stopped(room):
 
 
 def test_monte_carlo_reaches_the_core_after_the_emitters_shoot(room):
-    """"Monte Carlo" (Advanced), off by default: with 256 rays the glowing panel's patches shoot
+    """"Monte Carlo" (Advanced), Auto by default (off below 50,000 triangles, as here): with 256
+    rays the glowing panel's patches shoot
     (Max Shots 0), the report says the rest went by Monte Carlo, and the colours stay within 2 %
     RMS of the bake shot to its tolerance: the floor sees only the panel and the sun, both exact
     in either bake, so what differs is the little light the floor sends back up (the core's tests,
     tests/core/test_montecarlo.py, measure the convergence on scenes where it matters)."""
     settings = bpy.context.scene.radiosity
-    assert settings.monte_carlo_rays == "0"
+    assert settings.monte_carlo_rays == "AUTO"
     assert bake_in_background() == {"FINISHED"}
+    assert "Monte Carlo" not in settings.last_report, settings.last_report
     _, shot = corner_colours(room)
     settings.monte_carlo_rays = "256"
     assert bake_in_background() == {"FINISHED"}
@@ -264,3 +266,69 @@ def test_monte_carlo_reaches_the_core_after_the_emitters_shoot(room):
     assert re.search(r", \d+ shots? then Monte Carlo \(256 rays per vertex\), ", report), report
     _, carried = corner_colours(room)
     assert np.sqrt(((carried - shot) ** 2).mean()) <= 0.02 * np.abs(shot).mean()
+
+
+def lit_sphere(smooth: bool):
+    """A faceted UV sphere (grey 0.5) under a sun of strength 2 straight above: nothing else
+    reflects, so a corner shows 0.5 x 2 x max(0, n . up) / pi for the normal n it is shaded with."""
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=12, ring_count=6, radius=1.0)
+    sphere = bpy.context.object
+    sphere.data.materials.append(diffuse_material("Grey", (0.5, 0.5, 0.5)))
+    sphere.data.shade_smooth() if smooth else sphere.data.shade_flat()
+    light_object("Sun", "SUN", (0, 0, 5), 2.0)
+    return sphere
+
+
+def widest_spread_at_a_vertex(positions: np.ndarray, colours: np.ndarray) -> float:
+    """The largest difference in red between two corners of one vertex."""
+    _, vertex = np.unique(np.round(positions, 6), axis=0, return_inverse=True)
+    vertex = vertex.reshape(-1)
+    low = np.full(vertex.max() + 1, np.inf)
+    high = np.full(vertex.max() + 1, -np.inf)
+    np.minimum.at(low, vertex, colours[:, 0])
+    np.maximum.at(high, vertex, colours[:, 0])
+    return float((high - low).max())
+
+
+def corner_normals_of(obj) -> np.ndarray:
+    normals = np.empty(len(obj.data.loops) * 3, dtype=np.float32)
+    obj.data.corner_normals.foreach_get("vector", normals)
+    return normals.reshape(-1, 3).astype(np.float64)
+
+
+@pytest.mark.parametrize("smooth", [False, True])
+def test_vertex_colours_follow_the_mesh_shading_as_cycles_does(smooth):
+    """"Vertex Colours: Follow Shading" (the default): each corner is lit as its shading normal
+    says, Shade Flat or Smooth (Cycles shades a corner so). Away from the terminator (n . up >
+    0.3, where no shadow ray grazes a facet), within 1e-3 of the exact value; smooth corners of a
+    vertex then share one colour, flat ones do not."""
+    sphere = lit_sphere(smooth)
+    assert bpy.context.scene.radiosity.vertex_normals == "SHADING"
+    assert bake_in_background() == {"FINISHED"}
+    positions, colours = corner_colours(sphere)
+    cosine = corner_normals_of(sphere)[:, 2]
+    lit = cosine > 0.3
+    np.testing.assert_allclose(colours[lit, 0], 0.5 * 2.0 * cosine[lit] / np.pi, rtol=1e-3)
+    assert (widest_spread_at_a_vertex(positions, colours) < 1e-6) == smooth
+
+
+def test_crease_angle_mode_ignores_the_shading():
+    """"Crease Angle" with 60 degrees on the flat-shaded sphere (whose facets meet at 30 degrees):
+    the corners of a vertex share one colour though the mesh is shaded flat."""
+    sphere = lit_sphere(smooth=False)
+    settings = bpy.context.scene.radiosity
+    settings.vertex_normals, settings.crease_angle = "CREASE", np.radians(60)
+    assert bake_in_background() == {"FINISHED"}
+    assert widest_spread_at_a_vertex(*corner_colours(sphere)) < 1e-6
+
+
+def test_monte_carlo_auto_carries_a_large_scene_after_the_emitters_shoot():
+    """Auto turns Monte Carlo on from core.presets.LARGE_SCENE_TRIANGLES on: a floor of 160 x 160
+    cells (51,200 triangles, merged into a few panels) under a glowing panel bakes with 64 rays,
+    and the report says so."""
+    grid_object("Floor", cells=160, material=diffuse_material("Floor", (0.6, 0.5, 0.4)))
+    grid_object("Panel", 1.0, 2, location=(0, 0, 1.0), material=emission_material("Glow", (1, 0.9, 0.8), 5.0),
+                facing_down=True)
+    settings = bpy.context.scene.radiosity
+    assert bake_in_background() == {"FINISHED"}
+    assert "then Monte Carlo (64 rays per vertex)" in settings.last_report, settings.last_report

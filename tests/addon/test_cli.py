@@ -61,7 +61,7 @@ def test_overwrite_only_when_asked(cli, saved_scene):
     (["--output", "x.blend", "--rays", "10"], "--rays must be one of"),
     (["--output", "x.blend", "--patch-size", "-1"], "--patch-size must be a positive length"),
     (["--output", "x.blend", "--max-shots", "-1"], "--max-shots must be 0 (no limit) or more"),
-    (["--output", "x.blend", "--monte-carlo-rays", "100"], "--monte-carlo-rays must be one of 0, 16, 64"),
+    (["--output", "x.blend", "--monte-carlo-rays", "100"], "--monte-carlo-rays must be one of auto, 0, 16, 64"),
     (["--output", "x.blend", "--preset", "draft", "--tolerance", "0.1"], "--preset draft fixes the knobs"),
     (["--output", "x.txt"], "must be a .blend file"),
     (["--input", "/nonexistent.blend", "--output", "x.blend"], "no such file"),

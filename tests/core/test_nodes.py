@@ -2,6 +2,7 @@
 material borders and is shared elsewhere."""
 
 import numpy as np
+import pytest
 
 from core import Scene, bake
 from core.discretize import discretize
@@ -75,3 +76,55 @@ def test_the_two_sides_of_a_card_never_share_a_node():
     default = bake(scene)
     np.testing.assert_allclose(folded.corner_colors, default.corner_colors, rtol=1e-9)
     assert folded.corner_colors[4:].min() > 0  # every floor vertex sees the card's lit side
+
+
+def tent(angle_degrees: float) -> Scene:
+    """Two unit squares meeting along the y axis, each tilted by half the angle between their
+    normals (a shallow roof), grey, no light."""
+    half = np.radians(angle_degrees) / 2
+    down = [np.cos(half), 0, -np.sin(half)]
+    left = quad([0, 0, 0], [0, 1, 0], [-down[0], 0, down[2]])  # x < 0, faces up
+    right = quad([0, 0, 0], down, [0, 1, 0])  # x > 0, faces up
+    return uniform(*merge(left, right), 0.5, 0.0)
+
+
+def with_corner_normals(scene: Scene, normals: np.ndarray) -> Scene:
+    return Scene(scene.vertices, scene.triangles, scene.reflectance, scene.emission, corner_normals=normals)
+
+
+def face_normals(scene: Scene) -> np.ndarray:
+    corners = scene.vertices[scene.triangles]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    return np.repeat((normals / np.linalg.norm(normals, axis=1, keepdims=True))[:, None], 3, axis=1)
+
+
+def test_flat_corner_normals_split_the_nodes_that_the_crease_angle_joins():
+    """A 20 degree roof (6 vertices): below the 30 degree crease angle each vertex has one node;
+    with each face's own normal at its corners (Blender's Shade Flat, as Cycles shades them) the
+    two ridge vertices get a node per face (8 in all), each facing its face."""
+    scene = tent(20.0)
+    assert discretize(scene, None, np.radians(30)).node_count == 6
+    flat = with_corner_normals(scene, face_normals(scene))
+    mesh = discretize(flat, None, np.radians(30))
+    assert mesh.node_count == 8
+    node_normals = mesh.node_normals[mesh.corner_node]  # (T, 3, 3)
+    np.testing.assert_allclose(node_normals, face_normals(scene), atol=1e-12)
+
+
+def test_smooth_corner_normals_join_faces_beyond_the_crease_angle_and_set_the_node_normal():
+    """A 60 degree roof with the same (vertical) normal given at both faces' ridge corners, as
+    Shade Smooth would: the ridge vertices share one node each though the crease angle is 30
+    degrees, and the node faces the given normal."""
+    scene = tent(60.0)
+    normals = face_normals(scene)
+    ridge = np.isclose(scene.vertices[scene.triangles][..., 0], 0.0)  # (T, 3) corners on the ridge
+    normals[ridge] = [0.0, 0.0, 1.0]
+    mesh = discretize(with_corner_normals(scene, normals), None, np.radians(30))
+    assert mesh.node_count == 6
+    np.testing.assert_allclose(mesh.node_normals[mesh.corner_node[ridge]], [[0.0, 0.0, 1.0]] * ridge.sum(), atol=1e-12)
+
+
+@pytest.mark.parametrize("bad", [np.zeros((4, 3, 3)), np.full((4, 3, 3), np.nan), np.ones((4, 3))])
+def test_corner_normals_must_be_finite_non_zero_and_one_per_corner(bad):
+    with pytest.raises(ValueError, match="corner_normals"):
+        with_corner_normals(tent(20.0), bad)
