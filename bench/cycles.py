@@ -292,7 +292,7 @@ def _compared(a: Analysis) -> list[str]:
         "- Where the values sit: Cycles bakes each corner at one point "
         f"{CORNER_INSET:g} x max(1, |coords|) inside the corner's own face, and seeds its random numbers by the "
         "vertex index, so the corners of one vertex share their noise. Our nodes (one per vertex, material and "
-        "smooth normal; faces meeting at more than the 30 degree crease angle do not share one) are evaluated "
+        "shading normal: the mesh's corner normals, so a flat-shaded face's corners have its own) are evaluated "
         f"{NODE_INSET:g} of the scene's extent from the vertex towards the centre of their faces, at most half "
         "the way (core/discretize.py NODE_INSET). "
         "Both are, in effect, the value at the vertex; neither is a mean over an area.",
