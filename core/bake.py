@@ -304,7 +304,10 @@ class _Level:
             inherited = state.radiosity[:patch_count][origin]
             new = refine.children(origin, patch_count)
             mesh = engine.mesh
-            gathered = engine.gather(engine.receiving_points[new], mesh.patch_normals[new], inherited, report)
+            # what the new patches have received is what was shot, B - U: the unshot rest reaches
+            # them when it is shot (or carried by montecarlo), not now as well
+            shot = (state.radiosity[:patch_count] - state.unshot)[origin]
+            gathered = engine.gather(engine.receiving_points[new], mesh.patch_normals[new], shot, report)
             corrected = sources[new] + mesh.patch_reflectance[new, : self.channels] * gathered
             unshot = state.unshot[origin]
             unshot[new] += corrected - inherited[new]
