@@ -1,5 +1,6 @@
 """How far a bake's corner colours may be from the converged answer: the light not yet
-distributed, plus the error of representing radiosity as constant over each patch.
+distributed (or, where Monte Carlo carried it, the final gather's noise: ``monte_carlo_error``),
+plus the error of representing radiosity as constant over each patch.
 
 Errors are relative RMS over the receiver nodes that emit nothing, all channels:
 sqrt(mean |c - c*|^2) / mean |c*| (the NRMSE the benchmarks measure, docs/tradeoffs.md).
