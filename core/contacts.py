@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import spatial
+from .spatial import ranks
 from .geometry import areas_and_normals, longest_edges
 
 CONTACT_TOLERANCE = 1e-6  # distance to a plane, as a fraction of the triangle's longest edge, that counts as on it
@@ -33,16 +34,15 @@ def pieces(corners: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.
     """Triangles (T, 3, 3) cut along their contact lines: (K, 3, 3) pieces with the winding of
     their triangle, and (K,) the triangle of each, in triangle order. A triangle without contact
     (or ``degenerate``, (T,) bool) is its own single piece."""
-    lines = _contact_lines(corners, degenerate)
-    if not lines:
+    target, start, end = _contact_lines(corners, degenerate)
+    if len(target) == 0:
         return corners, np.arange(len(corners))
     uncut = np.ones(len(corners), dtype=bool)
-    uncut[list(lines)] = False
-    parts = [corners[uncut]] + [_cut(corners[t], lines[t]) for t in lines]
-    owners = [np.flatnonzero(uncut)] + [np.full(len(part), t) for t, part in zip(lines, parts[1:])]
-    owner = np.concatenate(owners)
+    uncut[target] = False
+    cut, cut_owner = _cut(corners, target, start, end)
+    owner = np.concatenate([np.flatnonzero(uncut), cut_owner])
     order = np.argsort(owner, kind="stable")
-    return np.concatenate(parts)[order], owner[order]
+    return np.concatenate([corners[uncut], cut])[order], owner[order]
 
 
 def coplanar_overlaps(corners: np.ndarray, owners: np.ndarray) -> np.ndarray:
@@ -82,8 +82,9 @@ def coplanar_overlap_pairs(corners: np.ndarray, owners: np.ndarray) -> tuple[np.
     return a[overlap], b[overlap]
 
 
-def _contact_lines(corners: np.ndarray, degenerate: np.ndarray) -> dict[int, list[tuple[np.ndarray, np.ndarray]]]:
-    """For each triangle met by another inside, the lines (start, end) that cut it."""
+def _contact_lines(corners: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The lines that cut triangles met by another inside: (L,) the triangle each cuts, sorted,
+    and (L, 3) start and end of each."""
     valid = np.flatnonzero(~degenerate)
     first, second = _touching_boxes(corners[valid])
     target, other = valid[first], valid[second]
@@ -97,11 +98,10 @@ def _contact_lines(corners: np.ndarray, degenerate: np.ndarray) -> dict[int, lis
     target, other, heights = target[meets], other[meets], heights[meets]
     start, end, found = _plane_sections(corners[other], heights)
     target, start, end = target[found], start[found], end[found]
-    inside = _length_inside(corners[target], normals[target], start, end, CONTACT_TOLERANCE * size[target]) > 0
-    lines: dict[int, list] = {}
-    for t, a, b in zip(target[inside], start[inside], end[inside]):
-        lines.setdefault(int(t), []).append((a, b))
-    return lines
+    inside = np.flatnonzero(_length_inside(corners[target], normals[target], start, end,
+                                           CONTACT_TOLERANCE * size[target]) > 0)
+    inside = inside[np.argsort(target[inside], kind="stable")]
+    return target[inside], start[inside], end[inside]
 
 
 def _touching_boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -160,39 +160,69 @@ def _length_inside(triangles: np.ndarray, normals: np.ndarray, start: np.ndarray
     return np.where(separates & (length > tolerance), length, 0.0)
 
 
-def _cut(triangle: np.ndarray, lines: list) -> np.ndarray:
-    """(k, 3, 3) fan triangles of the convex pieces of ``triangle`` cut by ``lines``."""
-    _, normal = areas_and_normals(triangle[None])
-    normal = normal[0]
-    tolerance = CONTACT_TOLERANCE * longest_edges(triangle[None])[0]
-    polygons = [list(triangle)]
-    for start, end in lines:
-        across = np.cross(normal, end - start)
-        across /= np.linalg.norm(across)
-        split = []
-        for polygon in polygons:
-            split.extend(_split_polygon(polygon, start, across, tolerance))
-        polygons = split
-    return np.array([[polygon[0], polygon[i], polygon[i + 1]] for polygon in polygons
-                     for i in range(1, len(polygon) - 1)])
+def _cut(corners: np.ndarray, target: np.ndarray, start: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Fan triangles (K, 3, 3) of the convex pieces of the triangles ``target`` (L,), sorted,
+    cut along the lines from ``start`` to ``end`` (L, 3), and the triangle of each. The pieces
+    of all triangles are split at once, one line of each triangle per round: polygons of up to
+    V corners padded to V."""
+    _, normals = areas_and_normals(corners)
+    tolerance = CONTACT_TOLERANCE * longest_edges(corners)
+    triangles, first_line, line_count = np.unique(target, return_index=True, return_counts=True)
+    across = np.cross(normals[target], end - start)
+    across /= np.linalg.norm(across, axis=1, keepdims=True)
+    polygons, sizes = corners[triangles], np.full(len(triangles), 3)
+    slot = np.arange(len(triangles))  # the triangle (index into ``triangles``) of each polygon
+    for number in range(int(line_count.max())):
+        active = np.flatnonzero(line_count[slot] > number)
+        line = first_line[slot[active]] + number
+        positive, negative, split = _split(polygons[active], sizes[active], start[line], across[line],
+                                           tolerance[target[line]])
+        width = max(polygons.shape[1], positive[0].shape[1], negative[0].shape[1])
+        copies = np.ones(len(slot), dtype=np.int64)
+        copies[active[split]] = 2
+        at = np.cumsum(copies) - copies  # each polygon's first place in the new list
+        new_polygons = np.zeros((copies.sum(), width, 3))
+        new_polygons[at, : polygons.shape[1]] = polygons
+        new_sizes = sizes[np.repeat(np.arange(len(slot)), copies)]
+        chosen = active[split]
+        for place, (points, count) in ((at[chosen], positive), (at[chosen] + 1, negative)):
+            new_polygons[place] = 0.0
+            new_polygons[place, : points.shape[1]] = points[split]
+            new_sizes[place] = count[split]
+        polygons, sizes, slot = new_polygons, new_sizes, np.repeat(slot, copies)
+    fans = sizes - 2
+    polygon = np.repeat(np.arange(len(sizes)), fans)
+    second = ranks(fans) + 1
+    return np.stack([polygons[polygon, 0], polygons[polygon, second], polygons[polygon, second + 1]], axis=1), \
+        triangles[slot[polygon]]
 
 
-def _split_polygon(polygon: list, start: np.ndarray, across: np.ndarray, tolerance: float) -> list:
-    """A convex polygon (list of corners) split by the line through ``start`` normal to
-    ``across`` into its two sides, or itself if the line misses its inside."""
-    side = np.array([(corner - start) @ across for corner in polygon])
-    side[np.abs(side) <= tolerance] = 0
-    if side.min() >= 0 or side.max() <= 0:
-        return [polygon]
-    positive, negative = [], []
-    for i, corner in enumerate(polygon):
-        j = (i + 1) % len(polygon)
-        if side[i] >= 0:
-            positive.append(corner)
-        if side[i] <= 0:
-            negative.append(corner)
-        if side[i] * side[j] < 0:
-            crossing = corner + side[i] / (side[i] - side[j]) * (polygon[j] - corner)
-            positive.append(crossing)
-            negative.append(crossing)
-    return [positive, negative]
+def _split(polygons: np.ndarray, sizes: np.ndarray, start: np.ndarray, across: np.ndarray,
+           tolerance: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray], np.ndarray]:
+    """Convex polygons (k, V, 3) of ``sizes`` (k,) corners split by the lines through ``start``
+    (k, 3) normal to unit ``across`` (k, 3): the sides across >= 0 and <= 0 (corners within
+    ``tolerance`` (k,) of the line on both), each as (polygons (k, W, 3), sizes (k,)), and (k,)
+    whether the line crosses the polygon's inside (elsewhere the sides are not meaningful)."""
+    count, width = polygons.shape[:2]
+    corner = np.arange(width)
+    valid = corner < sizes[:, None]
+    side = np.einsum("kvx,kx->kv", polygons - start[:, None], across)
+    side[np.abs(side) <= tolerance[:, None]] = 0
+    split = (np.where(valid, side, np.inf).min(axis=1) < 0) & (np.where(valid, side, -np.inf).max(axis=1) > 0)
+    following = np.where(corner + 1 < sizes[:, None], corner + 1, 0)
+    next_side = np.take_along_axis(side, following, axis=1)
+    next_corner = np.take_along_axis(polygons, following[..., None], axis=1)
+    crosses = valid & (side * next_side < 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(crosses, side / (side - next_side), 0.0)
+    crossing = polygons + t[..., None] * (next_corner - polygons)
+    slots = np.stack([polygons, crossing], axis=2).reshape(count, 2 * width, 3)  # each corner, then its edge's crossing
+    sides = []
+    for keep in (side >= 0, side <= 0):
+        used = np.stack([valid & keep, crosses], axis=2).reshape(count, 2 * width)
+        place = np.cumsum(used, axis=1) - 1
+        result = np.zeros((count, max(1, int(used.sum(axis=1).max())), 3))
+        row, column = np.nonzero(used)
+        result[row, place[row, column]] = slots[row, column]
+        sides.append((result, used.sum(axis=1)))
+    return sides[0], sides[1], split

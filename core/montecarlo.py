@@ -32,7 +32,7 @@ from typing import Callable
 
 import numpy as np
 
-from . import parallel
+from . import parallel, rows
 from .spatial import ranks
 from .discretize import Discretization
 from .geometry import barycentric, tangent_frames
@@ -212,8 +212,7 @@ def pooled(mesh: Discretization, arrived: np.ndarray, hits: np.ndarray, min_hits
     extent = float(np.ptp(mesh.patch_centroids, axis=0).max())
     while len(short):
         cell = np.floor((mesh.patch_centroids[short] - low) / spacing).astype(np.int64)
-        _, group = np.unique(np.concatenate([cell, facing[short]], axis=1), axis=0, return_inverse=True)
-        group = group.reshape(-1)
+        group = rows.labels(np.concatenate([cell, facing[short]], axis=1))
         pool[short] = len(areas) + group  # above every index of a patch alone
         pool_area[short] = np.bincount(group, areas[short])[group]
         if spacing > extent:

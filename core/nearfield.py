@@ -30,7 +30,7 @@ from typing import Callable
 
 import numpy as np
 
-from . import parallel, spatial
+from . import parallel, rows, spatial
 from .analytic import point_to_triangle
 from .discretize import Discretization, inset
 from .geometry import barycentric_grid, longest_edges
@@ -206,7 +206,7 @@ def _patch_corner_nodes(scene: Scene, mesh: Discretization) -> tuple[np.ndarray,
     patch = np.repeat(np.arange(mesh.patch_count), 3)
     surface = np.concatenate([np.round(mesh.patch_normals * 1e6), mesh.patch_reflectance, mesh.patch_emission,
                               mesh.patch_piece[:, None]], axis=1)[patch]
-    corner_key = np.unique(np.concatenate([position, surface], axis=1), axis=0, return_inverse=True)[1]
+    corner_key = rows.labels(np.concatenate([position, surface], axis=1))
     output = np.full((mesh.patch_count, 3), -1)
     front = mesh.front_patch_count
     triangle = mesh.patch_triangle[:front]
@@ -230,15 +230,22 @@ def _near_pairs(points: np.ndarray, normals: np.ndarray, mesh: Discretization, l
     edges = longest_edges(mesh.patch_corners)
     corners = mesh.patch_corners[candidates]
     pad = NEAR_REACH * np.minimum(edges[candidates], np.median(edges))[:, None]
-    receivers, patches = spatial.overlapping_boxes(points, points, corners.min(axis=1) - pad, corners.max(axis=1) + pad)
-    patches = candidates[patches]
-    close = np.linalg.norm(points[receivers] - mesh.patch_centroids[patches], axis=1) < NEAR_REACH * edges[patches]
-    receivers, patches = receivers[close], patches[close]
-    # a patch on or behind the point's tangent plane (its own surface, most of them) is not seen:
-    # F = 0 without casting a ray
-    heights = np.einsum("kcx,kx->kc", mesh.patch_corners[patches] - points[receivers][:, None], normals[receivers])
-    above = heights.max(axis=1) > HORIZON * edges[patches]
-    receivers, patches = receivers[above], patches[above]
+
+    def may_see(receivers: np.ndarray, chosen: np.ndarray) -> np.ndarray:
+        # close enough; and the patch neither on or behind the point's tangent plane (its own
+        # surface, most of them) nor turning its back to the point: F = 0 without casting a ray
+        patches = candidates[chosen]
+        offset = points[receivers] - mesh.patch_centroids[patches]
+        result = np.einsum("kx,kx->k", offset, offset) < (NEAR_REACH * edges[patches]) ** 2
+        close = np.flatnonzero(result)
+        receivers, patches, offset, edge = receivers[close], patches[close], offset[close], edges[patches[close]]
+        heights = np.einsum("kcx,kx->kc", mesh.patch_corners[patches] - points[receivers][:, None], normals[receivers])
+        facing = np.einsum("kx,kx->k", offset, mesh.patch_normals[patches]) > -HORIZON * edge
+        result[close] = facing & (heights.max(axis=1) > HORIZON * edge)
+        return result
+
+    receivers, chosen = spatial.points_in_boxes(points, corners.min(axis=1) - pad, corners.max(axis=1) + pad, may_see)
+    patches = candidates[chosen]
     parts = parallel.map_ordered(
         lambda start: form_factors(points, normals, receivers[start:start + RAY_PAIRS_PER_BLOCK],
                                    patches[start:start + RAY_PAIRS_PER_BLOCK]),

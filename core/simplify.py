@@ -280,8 +280,8 @@ def _locate(local, positions, panel_vertices, region, panel_source):
         vertex_region[flat] = np.repeat(region, 3)
         panel_corners = positions[panel_vertices]
         pad = FLATNESS * longest_edges(panel_corners)[:, None]  # removed vertices lie within it of a panel
-        found_point, found_panel = spatial.overlapping_boxes(points, points, panel_corners.min(axis=1) - pad,
-                                                             panel_corners.max(axis=1) + pad)
+        found_point, found_panel = spatial.points_in_boxes(points, panel_corners.min(axis=1) - pad,
+                                                           panel_corners.max(axis=1) + pad)
         same = region[panel_source[found_panel]] == vertex_region[removed][found_point]
         found_point, found_panel = found_point[same], found_panel[same]
         weights = barycentric(points[found_point], panel_corners[found_panel])

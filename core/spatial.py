@@ -1,6 +1,9 @@
-"""Which boxes of one set overlap those of another: a uniform grid, not all pairs."""
+"""Which boxes of one set overlap those of another, and which points lie in which boxes: a
+uniform grid, not all pairs."""
 
 from __future__ import annotations
+
+from typing import Callable
 
 import numpy as np
 
@@ -16,6 +19,8 @@ BOX_CELL = 2.0
 POINT_CELL = 0.5
 # Candidate pairs made at once (about 50 bytes each): bounds the memory of a dense cell.
 PAIRS_PER_BLOCK = 1 << 22
+# Boxes whose cells are listed at once by ``points_in_boxes`` (about 40 bytes per cell).
+LISTINGS_PER_BLOCK = 1 << 20
 # Up to this many pairs in all, every pair is tested: faster than building the grid.
 EVERY_PAIR = 1 << 20
 
@@ -23,7 +28,7 @@ EVERY_PAIR = 1 << 20
 def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray,
                       high_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Index pairs (i, j), each once, sorted, of axis-aligned boxes (corners (n, 3)) of a and b
-    that overlap or touch, through a grid (BOX_CELL, POINT_CELL)."""
+    that overlap or touch, through a grid (BOX_CELL)."""
     empty = np.zeros(0, dtype=np.int64)
     if len(low_a) == 0 or len(low_b) == 0:
         return empty, empty
@@ -32,9 +37,7 @@ def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray,
     sizes = np.concatenate([high_a - low_a, high_b - low_b]).max(axis=1)
     origin = np.minimum(low_a.min(axis=0), low_b.min(axis=0))
     spread = float((np.maximum(high_a.max(axis=0), high_b.max(axis=0)) - origin).max())
-    points = not (high_a > low_a).any() or not (high_b > low_b).any()
-    cell = (POINT_CELL if points else BOX_CELL) * float(np.median(sizes[sizes > 0])) if (sizes > 0).any() else spread
-    cell = max(cell, spread / (1 << 20), np.finfo(float).tiny)  # at most 2^60 cells: int64 keys
+    cell = _cell_size(sizes, spread, BOX_CELL)
     boxes_a = _cells(low_a, high_a, origin, cell)
     boxes_b = _cells(low_b, high_b, origin, cell)
     large_a = np.flatnonzero(boxes_a[1].prod(axis=1) > LARGE_CELLS)
@@ -47,6 +50,75 @@ def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray,
     parts.append((first, second))
     keys = np.unique(np.concatenate([a * len(low_b) + b for a, b in parts]))
     return keys // len(low_b), keys % len(low_b)
+
+
+def points_in_boxes(points: np.ndarray, low: np.ndarray, high: np.ndarray,
+                    keep: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs (i, j), each once, of the points (n, 3) lying in or on the boxes (corners
+    (m, 3)) for which ``keep(i, j)`` (index arrays to a bool mask; None: all) holds, in a fixed
+    order. Each point falls in one cell of a grid (POINT_CELL), so each pair is found once, and
+    ``keep`` runs on the candidates block by block on the pool's threads: a caller's filters
+    never see the whole candidate set at once."""
+    empty = np.zeros(0, dtype=np.int64)
+    if len(points) == 0 or len(low) == 0:
+        return empty, empty
+    origin = np.minimum(points.min(axis=0), low.min(axis=0))
+    spread = float((np.maximum(points.max(axis=0), high.max(axis=0)) - origin).max())
+    cell = _cell_size((high - low).max(axis=1), spread, POINT_CELL)
+    cells, spans = _cells(low, high, origin, cell)
+    point_cells = np.floor((points - origin) / cell).astype(np.int64)
+    shape = tuple(np.maximum(point_cells.max(axis=0), (cells + spans - 1).max(axis=0)) + 1)
+    point_keys = np.ravel_multi_index(point_cells.T, shape)
+    by_cell = np.argsort(point_keys, kind="stable")
+    sorted_keys = point_keys[by_cell]
+    listed = spans.prod(axis=1)
+    large = listed > LARGE_CELLS
+    everything = np.arange(len(points))
+
+    def accept(first: np.ndarray, second: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        inside = ((low[second] <= points[first]) & (points[first] <= high[second])).all(axis=1)
+        first, second = first[inside], second[inside]
+        if keep is not None and len(first):
+            chosen = keep(first, second)
+            first, second = first[chosen], second[chosen]
+        return first, second
+
+    def listed_block(boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        listing, owner = _listings(cells[boxes], spans[boxes])
+        keys = np.ravel_multi_index(listing.T, shape)
+        start = np.searchsorted(sorted_keys, keys, side="left")
+        count = np.searchsorted(sorted_keys, keys, side="right") - start
+        total = np.cumsum(count)
+        firsts, seconds, begin = [empty], [empty], 0
+        while begin < len(keys):  # at most PAIRS_PER_BLOCK candidates at once
+            end = max(begin + 1, int(np.searchsorted(total, (total[begin - 1] if begin else 0) + PAIRS_PER_BLOCK)))
+            chunk = slice(begin, end)
+            first = by_cell[np.repeat(start[chunk], count[chunk]) + ranks(count[chunk])]
+            found = accept(first, boxes[np.repeat(owner[chunk], count[chunk])])
+            firsts.append(found[0])
+            seconds.append(found[1])
+            begin = end
+        return np.concatenate(firsts), np.concatenate(seconds)
+
+    def large_block(box: int) -> tuple[np.ndarray, np.ndarray]:
+        return accept(everything, np.full(len(points), box))
+
+    if len(points) * len(low) <= EVERY_PAIR:
+        return accept(np.tile(everything, len(low)), np.repeat(np.arange(len(low)), len(points)))
+    small = np.flatnonzero(~large)
+    bounds = np.searchsorted(np.cumsum(listed[small]), np.arange(LISTINGS_PER_BLOCK, listed[small].sum(),
+                                                                  LISTINGS_PER_BLOCK))
+    blocks = [(listed_block, boxes) for boxes in np.split(small, bounds)] + \
+        [(large_block, box) for box in np.flatnonzero(large)]
+    parts = list(parallel.map_ordered(lambda job: job[0](job[1]), blocks))
+    return np.concatenate([empty, *(first for first, _ in parts)]), np.concatenate([empty, *(second for _, second in parts)])
+
+
+def _cell_size(sizes: np.ndarray, spread: float, times: float) -> float:
+    """Grid cells ``times`` the median of the positive box ``sizes`` (the scene's ``spread`` if
+    none), and at most 2^60 of them (int64 keys)."""
+    cell = times * float(np.median(sizes[sizes > 0])) if (sizes > 0).any() else spread
+    return max(cell, spread / (1 << 20), np.finfo(float).tiny)
 
 
 def _boxes_touch(low_a, high_a, first, low_b, high_b, second) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""spatial.overlapping_boxes against every pair tested directly."""
+"""spatial.overlapping_boxes and spatial.points_in_boxes against every pair tested directly."""
 
 import numpy as np
 import pytest
@@ -34,3 +34,34 @@ def test_overlapping_boxes_finds_exactly_the_touching_pairs(monkeypatch, grid):
     assert len(expected_first) > 300  # the case is not trivial (595 pairs)
     np.testing.assert_array_equal(first, expected_first)
     np.testing.assert_array_equal(second, expected_second)
+
+
+@pytest.mark.parametrize("grid", [True, False])
+def test_points_in_boxes_finds_exactly_the_points_inside_and_applies_the_filter(monkeypatch, grid):
+    """Points against boxes (the grid, with large boxes tested against every point, and the
+    direct test) give the brute-force pairs, each once; ``keep`` sees only pairs inside and its
+    verdict stands."""
+    if grid:
+        monkeypatch.setattr(spatial, "EVERY_PAIR", 0)
+        monkeypatch.setattr(spatial, "LARGE_CELLS", 64)
+        monkeypatch.setattr(spatial, "LISTINGS_PER_BLOCK", 50)  # many blocks
+        monkeypatch.setattr(spatial, "PAIRS_PER_BLOCK", 100)
+    rng = np.random.default_rng(11)
+    low, high = random_boxes(rng, 300)
+    points = rng.random((3000, 3))
+    points[:40] = low[:40]  # on a corner of a box: inside
+    points[40:60, 0] = high[40:60, 0]  # on a face's plane
+    inside = ((low[None] <= points[:, None]) & (points[:, None] <= high[None])).all(axis=2)
+    expected = set(zip(*np.nonzero(inside)))
+    assert len(expected) > 500  # not trivial (917 pairs)
+    first, second = spatial.points_in_boxes(points, low, high)
+    assert len(first) == len(expected) and set(zip(first, second)) == expected
+    seen = []
+
+    def even_sum(i, j):
+        seen.append(inside[i, j].all())
+        return (i + j) % 2 == 0
+
+    first, second = spatial.points_in_boxes(points, low, high, even_sum)
+    assert all(seen)
+    assert set(zip(first, second)) == {(i, j) for i, j in expected if (i + j) % 2 == 0}
