@@ -154,19 +154,25 @@ def corrected_lighting(near: NearField, mesh: Discretization, radiosity: np.ndar
     gathered = np.concatenate([node_lighting, point_lighting])
     if near.pair_count == 0:
         return gathered, 0
-    constant = near.form_factor[:, None] * radiosity[near.patch]
-    weights = near.form_factor[:, None] * near.weights
-    lighting = gathered
+    # G' = G - sum F B_q + W (E + rho G'), with W (N + M, N + M) the weights F lambda_i summed
+    # over the pairs that read receiver j at a corner: per channel, G'_c = base_c + (W rho_c) G'_c
+    count = len(gathered)
+    entries, entry = np.unique(near.receiver[:, None] * count + near.corner_receiver, return_inverse=True)
+    weights = np.bincount(entry.reshape(-1), (near.form_factor[:, None] * near.weights).reshape(-1))
+    row, column = entries // count, entries % count
+    base, transfer = np.empty((channels, count)), np.empty((channels, len(entries)))  # channels contiguous
+    for c in range(channels):
+        base[c] = gathered[:, c] + np.bincount(row, weights * emission[column, c], count) \
+            - np.bincount(near.receiver, near.form_factor * radiosity[near.patch, c], count)
+        transfer[c] = weights * reflectance[column, c]
+    lighting = gathered.T
     for iteration in range(1, MAX_ITERATIONS + 1):
-        colours = emission + reflectance * lighting
-        seen = np.einsum("kc,kcx->kx", weights, colours[near.corner_receiver]) - constant
-        correction = np.stack([np.bincount(near.receiver, seen[:, c], len(gathered)) for c in range(channels)], axis=1)
-        updated = gathered + correction
+        updated = base + np.stack([np.bincount(row, transfer[c] * lighting[c][column], count) for c in range(channels)])
         change = np.abs(updated - lighting).max()
         lighting = updated
         if change <= ITERATION_TOLERANCE * max(np.abs(lighting).max(), np.finfo(float).tiny):
             break
-    return lighting, iteration
+    return lighting.T, iteration
 
 
 def reading_error(near: NearField, mesh: Discretization, radiosity: np.ndarray, lighting: np.ndarray) -> np.ndarray:

@@ -133,25 +133,28 @@ class RayCaster:
                      sources: np.ndarray) -> np.ndarray:
         """(n,) form factors from points[receivers] (facing normals[receivers]) to patches
         ``sources``, pairwise; points (m, 3), normals (m, 3), receivers and sources (n,) int."""
-        unoccluded = point_to_triangle(points[receivers], normals[receivers], self.corners[sources])
-        lit = np.flatnonzero(unoccluded > 0)
-        if len(lit) == 0:
-            return unoccluded
-        receivers, sources = receivers[lit], sources[lit]
         normal = self.visibility.to_unit_directions(normals[receivers])
         # start RAY_EPSILON off the receiving surface, so a grazing ray cannot re-enter it
-        origin = self.visibility.to_unit(points[receivers]) + RAY_EPSILON * normal  # (k, 3)
+        origin = self.visibility.to_unit(points[receivers]) + RAY_EPSILON * normal  # (n, 3)
         # the probe samples first: where they agree (the source wholly seen or wholly hidden, as
-        # for most pairs) their verdict stands for every sample
-        offset = self._unit_probes[sources] - origin[:, None, :]  # (k, s, 3): rays, t in [0, 1]
+        # for most pairs) their verdict stands for every sample; the exact unoccluded form factor
+        # only where some are seen (in a large scene most near pairs, and most of what a light
+        # shoots, are hidden)
+        offset = self._unit_probes[sources] - origin[:, None, :]  # (n, s, 3): rays, t in [0, 1]
         probed = self._blocked(origin, offset, self._cos_source(offset, sources), sources)
-        hidden = probed.all(axis=1)
-        mixed = np.flatnonzero(probed.any(axis=1) & ~hidden)
-        seen = np.where(hidden, 0.0, 1.0)
+        result = np.zeros(len(receivers))
+        some_seen = np.flatnonzero(~probed.all(axis=1))
+        if len(some_seen) == 0:
+            return result
+        receivers_seen, sources_seen = receivers[some_seen], sources[some_seen]
+        unoccluded = point_to_triangle(points[receivers_seen], normals[receivers_seen], self.corners[sources_seen])
+        lit = unoccluded > 0
+        mixed = np.flatnonzero(lit & probed[some_seen].any(axis=1))
         if len(mixed):
-            seen[mixed] = self._seen_fraction(origin[mixed], normal[mixed], sources[mixed], probed[mixed])
-        unoccluded[lit] *= seen
-        return unoccluded
+            pairs = some_seen[mixed]
+            unoccluded[mixed] *= self._seen_fraction(origin[pairs], normal[pairs], sources[pairs], probed[pairs])
+        result[some_seen] = unoccluded
+        return result
 
     def _seen_fraction(self, origin, normal, sources, probed) -> np.ndarray:
         """(k,) the weighted share of the samples seen, sum_s w_s v_s / sum_s w_s, for pairs whose
