@@ -63,7 +63,7 @@ class FormFactorEngine:
         self.receiving_points = receivers.receiving_points(mesh, self.visibility)
         self.raycaster = None if method == "hemicube" else raycast.RayCaster(
             mesh.patch_corners, mesh.patch_normals, mesh.patch_areas, self.visibility, rays_per_form_factor, seed,
-            patch_owners=mesh.patch_triangle, probing=probing)
+            patch_owners=mesh.patch_triangle, probing=probing, emitting=mesh.patch_emission.any(axis=1))
 
     def point_form_factors(self, points: np.ndarray, normals: np.ndarray, receivers: np.ndarray,
                            sources: np.ndarray) -> np.ndarray:
@@ -95,7 +95,8 @@ class FormFactorEngine:
         mesh = self.mesh
         rays, seed, probing = self._ray_settings
         return raycast.RayCaster(mesh.patch_corners, mesh.patch_normals, mesh.patch_areas, self.visibility,
-                                 rays, seed, patch_owners=mesh.patch_triangle, probing=probing)
+                                 rays, seed, patch_owners=mesh.patch_triangle, probing=probing,
+                                 emitting=mesh.patch_emission.any(axis=1))
 
     @cached_property
     def _shot_receivers(self) -> tuple[np.ndarray, np.ndarray]:

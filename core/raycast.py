@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from .analytic import point_to_triangle
-from .geometry import barycentric_grid
+from .geometry import barycentric_grid, longest_edges
 from .visibility import RAY_EPSILON, Visibility
 
 _GOLDEN = (np.sqrt(5) - 1) / 2
@@ -29,6 +29,14 @@ _GOLDEN = (np.sqrt(5) - 1) / 2
 # 1 % more time).
 MIN_LIGHT_PIECES = 16
 MAX_LIGHT_DIVISIONS = 4
+# An emitting patch whose centroid is closer to a point than CLOSE_REACH of its longest edge is
+# sampled from there with CLOSE_RAYS rays, none skipped by the probes: a few samples of a large
+# source decide most of a point's direct light, and a blocker near the point (a moulding's lip)
+# hides part of it. Sponza's gallery tops, 0.3 to 1 m under the sky's 4 m triangles: their direct
+# light was 6.0 % RMS off at 4 rays (4.6 % at 16 with probes), 1.3 % with this (1.1 % at a reach
+# of 2, which took 25 s more); the bake 12.3 -> 11.2 % from Cycles' answer for 7 s more.
+CLOSE_REACH = 0.75
+CLOSE_RAYS = 64
 
 
 def check_ray_count(count: int) -> int:
@@ -82,13 +90,15 @@ class RayCaster:
     """Point-to-patch form factors with ray-cast visibility over a fixed set of patches."""
 
     def __init__(self, patch_corners, patch_normals, patch_areas, visibility: Visibility, rays: int, seed: int,
-                 patch_owners: np.ndarray | None = None, probing: bool = False):
+                 patch_owners: np.ndarray | None = None, probing: bool = False, emitting: np.ndarray | None = None):
         """``patch_owners`` (P,): the surface (``visibility.owners``) each patch lies on, or None
         for sources that are not among the occluders (area lights). With ``probing``, the probe
         samples (``probe_samples``: 4 of 16, 16 of 64) are cast first and the rest only where
         those disagree:
         about half the time of a bake, but a shadow edge that crosses a source between the
-        probes is missed (a blocker's form factor 1 % off in tests/core/test_occlusion.py)."""
+        probes is missed (a blocker's form factor 1 % off in tests/core/test_occlusion.py).
+        ``emitting`` (P,) bool: the patches sampled with CLOSE_RAYS from close by (when more than
+        ``rays``)."""
         self.corners = patch_corners
         self.normals = patch_normals
         self.owners = patch_owners
@@ -100,6 +110,12 @@ class RayCaster:
         # disc term A / (pi S) of the weight, in the unit space of the visibility module
         self._unit_disc = (patch_areas * visibility.scale**2 / (np.pi * rays)).astype(np.float32)
         self._probe, self._rest = probe_samples(rays) if probing else (np.arange(rays), np.zeros(0, dtype=np.int64))
+        close = np.zeros(len(patch_corners), dtype=bool) if emitting is None or CLOSE_RAYS <= rays else emitting
+        self._close_slot = np.full(len(patch_corners), -1)
+        self._close_slot[close] = np.arange(np.count_nonzero(close))
+        self._close_reach2 = (CLOSE_REACH * longest_edges(patch_corners)) ** 2
+        self._close_samples = stratified_samples(unit_corners[close], CLOSE_RAYS, seed + 1).astype(np.float32)
+        self._close_disc = (patch_areas[close] * visibility.scale**2 / (np.pi * CLOSE_RAYS)).astype(np.float32)
         self._unit_probes = np.ascontiguousarray(self._unit_samples[:, self._probe])  # (P, probes, 3)
         # sources with another face in their plane over them (``contacts.coplanar_overlaps``)
         # need the first-hit rule below; for the others a ray stopped short of their plane tells
@@ -112,7 +128,7 @@ class RayCaster:
 
     @property
     def sample_bytes(self) -> int:
-        return self._unit_samples.nbytes + self._unit_probes.nbytes
+        return self._unit_samples.nbytes + self._unit_probes.nbytes + self._close_samples.nbytes
 
     def grid_form_factors(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray) -> np.ndarray:
         """(m, k) form factors from every point (m, 3) facing normals (m, 3) to every patch of
@@ -133,6 +149,17 @@ class RayCaster:
                      sources: np.ndarray) -> np.ndarray:
         """(n,) form factors from points[receivers] (facing normals[receivers]) to patches
         ``sources``, pairwise; points (m, 3), normals (m, 3), receivers and sources (n,) int."""
+        close = self._close_slot[sources] >= 0
+        if close.any():
+            offset = points[receivers] - self.corners[sources].mean(axis=1)
+            close[close] = np.einsum("kx,kx->k", offset[close], offset[close]) < self._close_reach2[sources[close]]
+        if close.any():
+            result = np.empty(len(receivers))
+            far = np.flatnonzero(~close)
+            result[far] = self.form_factors(points, normals, receivers[far], sources[far])
+            close = np.flatnonzero(close)
+            result[close] = self._close_form_factors(points, normals, receivers[close], sources[close])
+            return result
         normal = self.visibility.to_unit_directions(normals[receivers])
         # start RAY_EPSILON off the receiving surface, so a grazing ray cannot re-enter it
         origin = self.visibility.to_unit(points[receivers]) + RAY_EPSILON * normal  # (n, 3)
@@ -156,9 +183,23 @@ class RayCaster:
         result[some_seen] = unoccluded
         return result
 
+    def _close_form_factors(self, points, normals, receivers, sources) -> np.ndarray:
+        """(n,) form factors to emitting sources close to their points (CLOSE_REACH), from
+        their CLOSE_RAYS samples, every one cast."""
+        normal = self.visibility.to_unit_directions(normals[receivers])
+        origin = self.visibility.to_unit(points[receivers]) + RAY_EPSILON * normal
+        unoccluded = point_to_triangle(points[receivers], normals[receivers], self.corners[sources])
+        lit = np.flatnonzero(unoccluded > 0)
+        slot = self._close_slot[sources[lit]]
+        offset = self._close_samples[slot] - origin[lit, None, :]
+        cos_source = self._cos_source(offset, sources[lit])
+        blocked = self._blocked(origin[lit], offset, cos_source, sources[lit])
+        unoccluded[lit] *= _weighted_share(offset, normal[lit], cos_source, blocked, self._close_disc[slot])
+        return unoccluded
+
     def _seen_fraction(self, origin, normal, sources, probed) -> np.ndarray:
-        """(k,) the weighted share of the samples seen, sum_s w_s v_s / sum_s w_s, for pairs whose
-        probes (k, probes) disagree: the other samples are cast too."""
+        """(k,) the weighted share of the samples seen for pairs whose probes (k, probes)
+        disagree: the other samples are cast too."""
         offset = self._unit_samples[sources] - origin[:, None, :]  # (k, S, 3)
         cos_source = self._cos_source(offset, sources)  # times -distance
         blocked = np.empty(offset.shape[:2], dtype=bool)
@@ -166,15 +207,7 @@ class RayCaster:
         if len(self._rest):
             rest = self._rest
             blocked[:, rest] = self._blocked(origin, offset[:, rest], cos_source[:, rest], sources)
-        distance2 = np.einsum("ksx,ksx->ks", offset, offset)
-        cos_receiver = (offset @ normal[:, :, None])[..., 0]  # times distance
-        weight = np.maximum(cos_receiver, 0) * np.maximum(-cos_source, 0)
-        weight /= distance2 * (distance2 + self._unit_disc[sources][:, None])
-        weight_sum = weight.sum(axis=1)
-        weight[weight_sum <= 0] = 1.0  # no sample above both horizons: count them all alike
-        weight_sum[weight_sum <= 0] = self.rays
-        weight[blocked] = 0
-        return weight.sum(axis=1) / weight_sum
+        return _weighted_share(offset, normal, cos_source, blocked, self._unit_disc[sources])
 
     def _cos_source(self, offset: np.ndarray, sources: np.ndarray) -> np.ndarray:
         """(k, s) cosine at the source times minus the distance, for ray offsets (k, s, 3)."""
@@ -222,3 +255,18 @@ class RayCaster:
             <= 2 * RAY_EPSILON
         blocked[candidates[turned_away & in_plane]] = False
         return blocked
+
+
+def _weighted_share(offset, normal, cos_source, blocked, disc) -> np.ndarray:
+    """(k,) sum_s w_s v_s / sum_s w_s over the samples at ``offset`` (k, S, 3) from the points
+    (facing ``normal`` (k, 3)), ``cos_source`` (k, S) the source's cosine times minus the
+    distance, ``blocked`` (k, S), ``disc`` (k,) the disc term of the weight."""
+    distance2 = np.einsum("ksx,ksx->ks", offset, offset)
+    cos_receiver = (offset @ normal[:, :, None])[..., 0]  # times distance
+    weight = np.maximum(cos_receiver, 0) * np.maximum(-cos_source, 0)
+    weight /= distance2 * (distance2 + disc[:, None])
+    weight_sum = weight.sum(axis=1)
+    weight[weight_sum <= 0] = 1.0  # no sample above both horizons: count them all alike
+    weight_sum[weight_sum <= 0] = offset.shape[1]
+    weight[blocked] = 0
+    return weight.sum(axis=1) / weight_sum

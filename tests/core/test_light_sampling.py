@@ -20,7 +20,8 @@ import pytest
 from core import Scene, bake
 from core.discretize import MAX_EMITTER_SHARE, discretize
 from core.lights import MAX_ADDED_LIGHT_PIECES, AreaLight, DirectLighting, area_light
-from core.raycast import MIN_LIGHT_PIECES
+from core.analytic import point_to_triangle
+from core.raycast import MIN_LIGHT_PIECES, RayCaster
 from core.visibility import Visibility
 from tests.core.scenes import grid, merge, quad
 
@@ -145,3 +146,40 @@ def test_area_lights_are_split_within_a_bound():
     lights = (disk,) * 20 + (square,)
     pieces = DirectLighting(lights, np.zeros(3), visibility, 16, 0).light_pieces
     assert pieces == 20 * len(disk.triangles) + SQUARE_SPLIT
+
+
+def _close_under_a_half_hidden_emitter(edge: float, emitting: bool, seed: int) -> tuple[float, float, float]:
+    """A point at the origin facing up, a 2 x 2 emitting square (2 triangles, one patch each)
+    facing down at height 1 and a blocker at height 1/2 over x > edge / 2, which hides exactly
+    the emitter's part x > edge (similar triangles): the ray-cast form factor at 4 rays (with
+    the close sampling of emitters or without), the exact one (B-3 of the part left, as two
+    triangles) and the whole square's."""
+    emitter = quad([-1, -1, 1], [0, 2, 0], [2, 0, 0])  # faces down
+    blocker = quad([edge / 2, -2, 0.5], [0, 4, 0], [2, 0, 0])
+    vertices, triangles = merge(emitter, blocker)
+    corners = vertices[triangles]
+    normals = np.tile([0.0, 0.0, -1.0], (2, 1))
+    caster = RayCaster(corners[:2], normals, np.full(2, 2.0), Visibility(corners), 4, seed,
+                       patch_owners=np.arange(2), probing=True, emitting=np.ones(2, dtype=bool) if emitting else None)
+    seen = caster.form_factors(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), np.zeros(2, dtype=np.int64),
+                               np.arange(2)).sum()
+    up = np.tile([0.0, 0.0, 1.0], (2, 1))
+    visible = quad([-1, -1, 1], [0, 2, 0], [1 + edge, 0, 0])
+    exact = point_to_triangle(np.zeros((2, 3)), up, visible[0][visible[1]]).sum()
+    return seen, exact, point_to_triangle(np.zeros((2, 3)), up, corners[:2]).sum()
+
+
+def test_an_emitter_close_by_is_sampled_finely_enough_for_a_shadow_edge():
+    """An emitter seen from within CLOSE_REACH of its size gets CLOSE_RAYS (64) stratified
+    samples, all cast, where 4 (the probes) decide a far one. A straight shadow edge crosses
+    about 8 of a triangle's 8 x 8 strata, each seen or not: the error is about sqrt(8) / 64 of
+    the triangle's weight, 4 % of the whole square's form factor; measured RMS over three edges
+    and eight seeds 1.6 %, against 12 % with 4 samples per patch."""
+    errors = {True: [], False: []}
+    for edge in (-0.43, 0.13, 0.52):
+        for seed in range(8):
+            for emitting in (True, False):
+                seen, exact, whole = _close_under_a_half_hidden_emitter(edge, emitting, seed)
+                errors[emitting].append((seen - exact) / whole)
+    assert np.sqrt(np.mean(np.square(errors[True]))) < 0.04
+    assert np.sqrt(np.mean(np.square(errors[False]))) > 0.04  # the case needs the close sampling
