@@ -101,7 +101,9 @@ def points_in_boxes(points: np.ndarray, low: np.ndarray, high: np.ndarray,
         return np.concatenate(firsts), np.concatenate(seconds)
 
     def large_block(box: int) -> tuple[np.ndarray, np.ndarray]:
-        return accept(everything, np.full(len(points), box))
+        found = [accept(chunk, np.full(len(chunk), box))  # every point, PAIRS_PER_BLOCK at once
+                 for chunk in np.array_split(everything, -(-len(points) // PAIRS_PER_BLOCK))]
+        return np.concatenate([first for first, _ in found]), np.concatenate([second for _, second in found])
 
     if len(points) * len(low) <= EVERY_PAIR:
         return accept(np.tile(everything, len(low)), np.repeat(np.arange(len(low)), len(points)))
