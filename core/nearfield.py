@@ -238,7 +238,7 @@ def _near_pairs(points: np.ndarray, normals: np.ndarray, mesh: Discretization, l
     pad = NEAR_REACH * np.minimum(edges[candidates], np.median(edges))[:, None]
 
     def may_see(receivers: np.ndarray, chosen: np.ndarray) -> np.ndarray:
-        # close enough; and the patch neither on or behind the point's tangent plane (its own
+        # close enough; and the patch neither on nor behind the point's tangent plane (its own
         # surface, most of them) nor turning its back to the point: F = 0 without casting a ray
         patches = candidates[chosen]
         offset = points[receivers] - mesh.patch_centroids[patches]

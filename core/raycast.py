@@ -149,17 +149,21 @@ class RayCaster:
                      sources: np.ndarray) -> np.ndarray:
         """(n,) form factors from points[receivers] (facing normals[receivers]) to patches
         ``sources``, pairwise; points (m, 3), normals (m, 3), receivers and sources (n,) int."""
-        close = self._close_slot[sources] >= 0
-        if close.any():
-            offset = points[receivers] - self.corners[sources].mean(axis=1)
-            close[close] = np.einsum("kx,kx->k", offset[close], offset[close]) < self._close_reach2[sources[close]]
-        if close.any():
-            result = np.empty(len(receivers))
-            far = np.flatnonzero(~close)
-            result[far] = self.form_factors(points, normals, receivers[far], sources[far])
-            close = np.flatnonzero(close)
-            result[close] = self._close_form_factors(points, normals, receivers[close], sources[close])
-            return result
+        close = np.flatnonzero(self._close_slot[sources] >= 0)
+        if len(close):
+            offset = points[receivers[close]] - self.corners[sources[close]].mean(axis=1)
+            close = close[np.einsum("kx,kx->k", offset, offset) < self._close_reach2[sources[close]]]
+        if len(close) == 0:
+            return self._probed_form_factors(points, normals, receivers, sources)
+        result = np.empty(len(receivers))
+        far = np.ones(len(receivers), dtype=bool)
+        far[close] = False
+        result[far] = self._probed_form_factors(points, normals, receivers[far], sources[far])
+        result[close] = self._close_form_factors(points, normals, receivers[close], sources[close])
+        return result
+
+    def _probed_form_factors(self, points, normals, receivers, sources) -> np.ndarray:
+        """(n,) form factors from the probes, and where they disagree every sample."""
         normal = self.visibility.to_unit_directions(normals[receivers])
         # start RAY_EPSILON off the receiving surface, so a grazing ray cannot re-enter it
         origin = self.visibility.to_unit(points[receivers]) + RAY_EPSILON * normal  # (n, 3)
