@@ -64,4 +64,3 @@ def auto_monte_carlo_rays(triangles: int) -> int:
     """``monte_carlo_rays`` for a scene of ``triangles``: LARGE_SCENE_MONTE_CARLO_RAYS from
     LARGE_SCENE_TRIANGLES on, else 0 (shoot to the tolerance)."""
     return LARGE_SCENE_MONTE_CARLO_RAYS if triangles >= LARGE_SCENE_TRIANGLES else 0
-

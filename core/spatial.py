@@ -89,21 +89,18 @@ def points_in_boxes(points: np.ndarray, low: np.ndarray, high: np.ndarray,
         start = np.searchsorted(sorted_keys, keys, side="left")
         count = np.searchsorted(sorted_keys, keys, side="right") - start
         total = np.cumsum(count)
-        firsts, seconds, begin = [empty], [empty], 0
+        found, begin = [], 0
         while begin < len(keys):  # at most PAIRS_PER_BLOCK candidates at once
             end = max(begin + 1, int(np.searchsorted(total, (total[begin - 1] if begin else 0) + PAIRS_PER_BLOCK)))
             chunk = slice(begin, end)
             first = by_cell[np.repeat(start[chunk], count[chunk]) + ranks(count[chunk])]
-            found = accept(first, boxes[np.repeat(owner[chunk], count[chunk])])
-            firsts.append(found[0])
-            seconds.append(found[1])
+            found.append(accept(first, boxes[np.repeat(owner[chunk], count[chunk])]))
             begin = end
-        return np.concatenate(firsts), np.concatenate(seconds)
+        return _joined(found)
 
     def large_block(box: int) -> tuple[np.ndarray, np.ndarray]:
-        found = [accept(chunk, np.full(len(chunk), box))  # every point, PAIRS_PER_BLOCK at once
-                 for chunk in np.array_split(everything, -(-len(points) // PAIRS_PER_BLOCK))]
-        return np.concatenate([first for first, _ in found]), np.concatenate([second for _, second in found])
+        return _joined([accept(chunk, np.full(len(chunk), box))  # every point, PAIRS_PER_BLOCK at once
+                        for chunk in np.array_split(everything, -(-len(points) // PAIRS_PER_BLOCK))])
 
     if len(points) * len(low) <= EVERY_PAIR:
         return accept(np.tile(everything, len(low)), np.repeat(np.arange(len(low)), len(points)))
@@ -112,7 +109,12 @@ def points_in_boxes(points: np.ndarray, low: np.ndarray, high: np.ndarray,
                                                                   LISTINGS_PER_BLOCK))
     blocks = [(listed_block, boxes) for boxes in np.split(small, bounds)] + \
         [(large_block, box) for box in np.flatnonzero(large)]
-    parts = list(parallel.map_ordered(lambda job: job[0](job[1]), blocks))
+    return _joined(list(parallel.map_ordered(lambda job: job[0](job[1]), blocks)))
+
+
+def _joined(parts: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    """The (first, second) index pairs of ``parts`` one after another."""
+    empty = np.zeros(0, dtype=np.int64)
     return np.concatenate([empty, *(first for first, _ in parts)]), np.concatenate([empty, *(second for _, second in parts)])
 
 
