@@ -190,6 +190,8 @@ def report(data: dict) -> str:
             "scene and the buried-patch probes; near field), "
             f"{stages.get('solve', 0.0):.0f} s the emitters' shots and {stages.get('monte_carlo', 0.0):.0f} s "
             "Monte Carlo. What is left of the error is mostly not noise: see docs/methods.md, \"Large scenes\".",
+            "- Cycles' answer is not exact either: `bench/path_traced.py`, run after this, scores these bakes and "
+            "Cycles' against path tracing at random corners (docs/path_traced.md).",
         ]
     lines += [
         f"- The core's own error estimate {'bounds' if min(estimates) >= 1 else 'does not bound'} the measured "

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import asdict, dataclass, field
+from typing import Callable
 
 import numpy as np
 
@@ -120,6 +121,21 @@ class BakeResult:
     stats: dict = field(default_factory=dict)
 
 
+def _patch_size(scene: Scene, settings: BakeSettings) -> float:
+    return settings.patch_size if settings.patch_size is not None else scene.extent / AUTO_PATCH_DIVISIONS
+
+
+def discretised(scene: Scene, settings: BakeSettings, report: Callable[[float], object] = lambda _: None
+                ) -> tuple[Discretization, simplify.Panels | None]:
+    """The patches and nodes ``bake`` solves on, and the panels they were cut from: with
+    ``merge_flat`` flat regions of small triangles merged (``simplify``; else None), cut into
+    patches of ``patch_size`` (by default the scene's extent / AUTO_PATCH_DIVISIONS)."""
+    patch_size = _patch_size(scene, settings)
+    crease = math.radians(settings.crease_angle)
+    panels = simplify.panels(scene, patch_size, lambda f: report(f / 2)) if settings.merge_flat else None
+    return discretize(scene, patch_size, crease, lambda f: report(0.5 + f / 2), panels=panels), panels
+
+
 def bake(
     scene: Scene,
     method: str = "raycast",
@@ -151,10 +167,9 @@ def bake(
     clock = time.perf_counter()
 
     stages.stage("discretising", 0.0, 0.02)
-    patch_size = settings.patch_size if settings.patch_size is not None else scene.extent / AUTO_PATCH_DIVISIONS
+    patch_size = _patch_size(scene, settings)
+    mesh, panels = discretised(scene, settings, stages.report)
     crease = math.radians(settings.crease_angle)
-    panels = simplify.panels(scene, patch_size, lambda f: stages.report(f / 2)) if settings.merge_flat else None
-    mesh = discretize(scene, patch_size, crease, lambda f: stages.report(0.5 + f / 2), panels=panels)
     channels = 1 if scene.is_grey else 3
     seconds["discretise"], clock = _lap(clock)
 

@@ -66,6 +66,26 @@ class Gathered:
     light: np.ndarray
     standard_error: np.ndarray
 
+    @staticmethod
+    def of(samples: np.ndarray) -> Gathered:
+        """The mean of ``samples`` (n, k, C) over their k, with its standard error (their spread
+        over sqrt(k); with one sample, its own size)."""
+        count = samples.shape[1]
+        spread = samples.std(axis=1, ddof=1) if count > 1 else np.abs(samples[:, 0])
+        return Gathered(samples.mean(axis=1), spread / np.sqrt(count))
+
+    @staticmethod
+    def on_threads(block: Callable[[int], Gathered], starts: range, channels: int, report: Report) -> Gathered:
+        """``block(start)`` for each of ``starts`` on the thread pool, joined in order, each reported."""
+        parts = []
+        for part in parallel.map_ordered(block, starts):
+            parts.append(part)
+            report(len(parts) / len(starts))
+        if not parts:
+            return Gathered(np.zeros((0, channels)), np.zeros((0, channels)))
+        return Gathered(np.concatenate([part.light for part in parts]),
+                        np.concatenate([part.standard_error for part in parts]))
+
 
 def cosine_directions(normals: np.ndarray, uv: np.ndarray) -> np.ndarray:
     """(n, 3) unit directions about unit ``normals`` (n, 3) from points ``uv`` (n, 2) of the
@@ -94,7 +114,7 @@ def check_gather_rays(count: int) -> int:
     return side
 
 
-class _Surfaces:
+class Surfaces:
     """Where the rays of ``trace`` and ``gather`` land: the patch hit, on the side hit."""
 
     def __init__(self, mesh: Discretization, visibility: Visibility) -> None:
@@ -150,7 +170,7 @@ def trace(mesh: Discretization, visibility: Visibility, unshot: np.ndarray, refl
     """(P, C) the particle-tracing estimate of X = U + rho F X for ``unshot`` U (P, C) and
     ``reflectance`` rho (P, C), from ``particles`` paths (see the module docstring), the power
     arriving read over pools of patches (``pooled``)."""
-    surfaces = _Surfaces(mesh, visibility)
+    surfaces = Surfaces(mesh, visibility)
     weights = mesh.patch_areas * np.abs(unshot).sum(axis=1)
     total = weights.sum()
     channels = unshot.shape[1]
@@ -242,13 +262,13 @@ def gather(mesh: Discretization, visibility: Visibility, points: np.ndarray, nor
     """The final gather of patch ``values`` (P, C) at ``points`` (n, 3) facing unit ``normals``
     (n, 3) with ``rays`` (a perfect square) cosine-distributed directions each, from one uniform
     point in each of the rays congruent squares of the unit square (jittered strata)."""
-    surfaces = _Surfaces(mesh, visibility)
+    surfaces = Surfaces(mesh, visibility)
     side = check_gather_rays(rays)
     cells = np.stack(np.divmod(np.arange(rays), side), axis=1) / side  # (K, 2) corners of the strata
     padded = np.concatenate([values, np.zeros((1, values.shape[1]))])  # row -1: nothing hit
     starts = range(0, len(points), POINTS_PER_BLOCK)
 
-    def block(start: int) -> tuple[np.ndarray, np.ndarray]:
+    def block(start: int) -> Gathered:
         rng = np.random.default_rng([seed, 2, start])
         chosen = slice(start, start + POINTS_PER_BLOCK)
         count = len(points[chosen])
@@ -256,16 +276,6 @@ def gather(mesh: Discretization, visibility: Visibility, points: np.ndarray, nor
         normal = np.repeat(normals[chosen], rays, axis=0)
         patch, _ = surfaces.hit(np.repeat(points[chosen], rays, axis=0),
                                 cosine_directions(normal, uv.reshape(-1, 2)), normal)
-        samples = padded[patch].reshape(count, rays, -1)
-        spread = samples.std(axis=1, ddof=1) if rays > 1 else np.abs(samples[:, 0])
-        return samples.mean(axis=1), spread / np.sqrt(rays)
+        return Gathered.of(padded[patch].reshape(count, rays, -1))
 
-    light, error = [], []
-    for done, (mean, standard_error) in enumerate(parallel.map_ordered(block, starts)):
-        light.append(mean)
-        error.append(standard_error)
-        report((done + 1) / len(starts))
-    channels = values.shape[1]
-    if not light:
-        return Gathered(np.zeros((0, channels)), np.zeros((0, channels)))
-    return Gathered(np.concatenate(light), np.concatenate(error))
+    return Gathered.on_threads(block, starts, values.shape[1], report)

@@ -53,8 +53,9 @@ def preset_knobs(name: str, extent: float) -> dict:
 # From this many triangles on, "Auto" (the add-on's default) carries the light left after the
 # emitters' shots by Monte Carlo (``monte_carlo_rays``): progressive refinement needs about a shot per
 # patch to converge and a shot costs a form factor at every receiver, so Sponza (66,456 triangles)
-# would take hours; there Monte Carlo with 64 rays bakes in 61 s at 11.2 % from Cycles' answer,
-# against 51 % for 300 shots and the ambient term in 79 s (docs/sponza.md). The 40 x 40 Cornell box
+# would take hours; there Monte Carlo with 64 rays bakes in 57 s at 9.7 % from Cycles' answer
+# (6.3 % from path tracing, docs/path_traced.md), against 51 % for 300 shots and the ambient term
+# in 86 s (docs/sponza.md). The 40 x 40 Cornell box
 # (20,348 triangles on 738 panels) still converges, in 9.0 s (docs/fine_mesh.md).
 LARGE_SCENE_TRIANGLES = 50_000
 LARGE_SCENE_MONTE_CARLO_RAYS = 64
