@@ -81,10 +81,7 @@ class _Emitters:
         squared = np.einsum("ij,ij->i", offset[lit], offset[lit])
         density = self.density[patch[lit]]
         geometry = cos_here[lit] * cos_there[lit] / (np.pi * squared**2) / density
-        # power heuristic against the cosine-distributed bounce that could have met the same point:
-        # densities per solid angle, p r^2 / cos_there here and cos_here / pi there (both over r)
-        light_density = density * squared**1.5 / cos_there[lit]
-        bounce_density = cos_here[lit] / (np.pi * np.sqrt(squared))
+        light_density, bounce_density = _solid_angle_densities(density, squared, cos_here[lit], cos_there[lit])
         share = light_density**2 / (light_density**2 + bounce_density**2)
         result[lit] = (clear * geometry * share)[:, None] * mesh.patch_emission[patch[lit]]
         return result
@@ -97,10 +94,18 @@ class _Emitters:
         squared = np.einsum("ij,ij->i", offset, offset)
         cos_here = np.einsum("ij,ij->i", offset, normals)
         cos_there = np.maximum(-np.einsum("ij,ij->i", offset, mesh.patch_normals[patches]), 1e-300)
-        light_density = self.density[patches] * squared**1.5 / cos_there
-        bounce_density = np.maximum(cos_here, 0.0) / (np.pi * np.sqrt(np.maximum(squared, 1e-300)))
+        light_density, bounce_density = _solid_angle_densities(self.density[patches], np.maximum(squared, 1e-300),
+                                                               np.maximum(cos_here, 0.0), cos_there)
         share = bounce_density**2 / np.maximum(light_density**2 + bounce_density**2, 1e-300)
         return share[:, None] * mesh.patch_emission[patches]
+
+
+def _solid_angle_densities(area_density: np.ndarray, squared: np.ndarray, cos_here: np.ndarray,
+                           cos_there: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The densities per solid angle, both times the distance r, of reaching an emitter's point
+    by sampling the emitters (p r^2 / cos_there, p per unit area) and by a cosine-distributed
+    bounce (cos_here / pi): the power heuristic's two weights (cosines times r, as computed)."""
+    return area_density * squared**1.5 / cos_there, cos_here / (np.pi * np.sqrt(squared))
 
 
 def path_traced(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
@@ -130,11 +135,11 @@ def path_traced(mesh: Discretization, visibility: Visibility, points: np.ndarray
             patch, point, path, weight = patch[landed], point[landed], path[landed], weight[landed]
             shining = np.flatnonzero(emitters.density[patch] > 0)
             if len(shining):
-                np.add.at(total, path[shining], weight[shining] * emitters.met(
-                    origin[landed][shining], normal[landed][shining], patch[shining], point[shining]))
+                total[path[shining]] += weight[shining] * emitters.met(
+                    origin[landed][shining], normal[landed][shining], patch[shining], point[shining])
             normal = mesh.patch_normals[patch]  # the side met, facing back along the ray
             weight = weight * reflectance[patch]
-            np.add.at(total, path, weight * emitters.light(visibility, point, normal, rng))
+            total[path] += weight * emitters.light(visibility, point, normal, rng)  # each path once
             if bounce >= 2:
                 survival = np.clip(weight.max(axis=1), MIN_SURVIVAL, 1.0)
                 alive = rng.random(len(path)) < survival
