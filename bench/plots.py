@@ -23,6 +23,8 @@ PANEL_TITLES = {
     "tolerance": "tolerance",
     "refinement_levels": "refinement levels",
     "max_shots": "shots (progressive refinement stopped after)",
+    "monte_carlo_rays": "Monte Carlo: final-gather rays per vertex",
+    "near_field": "near field on (1) or off (0)",
     "merge_flat": "flat regions merged (1) or not (0)",
 }
 PRESET_LETTERS = {"DRAFT": "D", "PREVIEW": "Pv", "PRODUCTION": "Pr", "REFERENCE": "R"}

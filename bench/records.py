@@ -78,21 +78,35 @@ class Record:
 
     @property
     def work(self) -> str:
-        """Shots (progressive) or sweeps (Jacobi, Gauss-Seidel), and whether the solver converged."""
+        """Shots (progressive) or sweeps (Jacobi, Gauss-Seidel), and whether the solver converged
+        or Monte Carlo carried the rest."""
         count = self.stats.get("shots", self.stats.get("iterations"))
         unit = ("shot" if "shots" in self.stats else "sweep") + ("" if count == 1 else "s")
+        if "monte_carlo" in self.stats:
+            return f"{count:,} {unit}, then Monte Carlo"
         return f"{count:,} {unit}" + ("" if self.stats.get("converged", True) else " (stopped)")
+
+
+@dataclass(frozen=True)
+class Answer:
+    """A path-traced answer (bench/corner_answer.py): its corners, the paths at each, its noise
+    (RMS of the standard errors over the mean) and the seconds the paths took."""
+
+    corners: int
+    paths: int
+    noise: float
+    seconds: float
 
 
 @dataclass
 class Run:
     """What one run of the sweep measured: the records per scene; per benchmark scene the
-    reference bake's record; per scene the BakeResult array compared; the machine and load
+    reference bake's record or the path-traced answer's summary; per scene the BakeResult array compared; the machine and load
     (``header``), the core's digest, the minutes the run took, and whether it was the quick
     sweep."""
 
     results: dict[str, list[Record]]
-    references: dict[str, Record]
+    references: dict[str, Record | Answer]
     quantities: dict[str, str]
     header: dict[str, str]
     core: str

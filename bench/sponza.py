@@ -42,7 +42,7 @@ SAMPLES, QUICK_SAMPLES = 256, 64
 SEEDS = (1, 2)
 EMITTERS = ["sky"]  # bench/sponza_blend.py's emitting quad: left out of every comparison
 # Our bakes, by the panel's settings, all with 4 rays per form factor (as the sweep's Sponza rows,
-# docs/tradeoffs.md): progressive refinement stopped after 300 shots, the rest as the ambient term (the
+# docs/tradeoffs.md, unless swept): progressive refinement stopped after 300 shots, the rest as the ambient term (the
 # best of 100, 300 and 1,000 shots in the run before Monte Carlo), then the emitters' shots with the rest
 # carried by Monte Carlo at 64, 256 and 1,024 final-gather rays per vertex
 BAKES = {"300 shots, ambient term": {"max_shots": 300, "monte_carlo_rays": "0"},
@@ -144,8 +144,8 @@ def report(data: dict) -> str:
         f"- The yardstick is **Cycles' answer**: the mean of its two {samples}-sample seeds, whose own noise is "
         f"{pct(answer_noise)} (RMS(seed 1 - seed 2) / 2 over the mean); every NRMSE below (RMS over every corner "
         "and channel, over the mean) has it removed in quadrature. No bake of ours converges here in minutes, so "
-        "none is a reference (docs/tradeoffs.md measures against one stopped after 2,000 shots: its errors are "
-        "relative to an unconverged bake).",
+        "none is a reference; path tracing is the other yardstick (docs/path_traced.md, and the sweep's Sponza rows "
+        "in docs/tradeoffs.md).",
         "",
         "## Ours",
         "",

@@ -45,12 +45,16 @@ import plots  # noqa: E402
 import report  # noqa: E402
 import scenes  # noqa: E402
 import tradeoff_doc  # noqa: E402
-from records import COMBOS, Case, Record, Run, pareto_front  # noqa: E402
+from corner_answer import CornerAnswer, path_traced_corners  # noqa: E402
+from cycles_metrics import without_noise  # noqa: E402
+from records import COMBOS, Answer, Case, Record, Run, pareto_front  # noqa: E402
 
 from core import BakeSettings, Scene, bake  # noqa: E402
 from core.bake import AUTO_PATCH_DIVISIONS  # noqa: E402
 from core.discretize import discretize  # noqa: E402
-from core.presets import PRESETS, preset_knobs  # noqa: E402
+from core.presets import (  # noqa: E402
+    LARGE_SCENE_MONTE_CARLO_RAYS, LARGE_SCENE_TRIANGLES, PRESETS, preset_knobs,
+)
 
 CORE = machine.core_digest()  # the core this run imported
 DOCS = REPO / "docs"
@@ -99,6 +103,16 @@ class Reference:
     timeout: float = 1200.0
 
 
+@dataclass(frozen=True)
+class PathTraced:
+    """The answer of a benchmark scene where no bake of ours converges in minutes: path tracing at
+    ``corners`` random corners, ``paths`` paths each (bench/corner_answer.py)."""
+
+    corners: int
+    paths: int
+    timeout: float = 1200.0
+
+
 FULL = {
     "furnace": Sweep(
         divisions=(2, 4, 8), values={"hemicube_resolution": (16, 32, 64, 128), "tolerance": (1e-1, 1e-2, 1e-3, 1e-4)},
@@ -119,19 +133,23 @@ FULL = {
                      "is not baked again. Explicit "
                      "solvers stop at patch size extent / 12 (2,318 patches before refinement)."),
     "sponza": Sweep(
-        divisions=(), values={"rays_per_form_factor": (1,), "max_shots": (50, 200)},
-        combos=(("raycast", "progressive"),), presets=(), base=(("max_shots", 100), ("rays_per_form_factor", 4)),
-        timeout=900.0,
-        note="Sponza is large for these methods (176,837 patches: its 66,456 triangles cut where surfaces pass "
-        "through each other, 68,041 patches before; 62,914 vertices): no bake converges in minutes, so "
-        "every bake here stops after max_shots shots (100 unless swept), which stands in for the tolerance (bake() "
-        "also takes no tolerance above 0.1), and casts 4 rays per form factor (not the default 16) unless swept. "
-        "Left out: Jacobi and Gauss-Seidel (a 176,837 x 176,837 matrix, "
-        "250 GB); the patch size (patches are never larger than the input triangles and their pieces); "
-        "the hemicube, whose gather at the vertices alone takes minutes here (dense rows, O(vertices x patches)); "
-        "the presets, whose tolerances no bake reaches in minutes. The reference is no nearer convergence (29 % "
-        "of the light unshot after 2,000 shots): these errors are against it, not against the answer; "
-        "docs/sponza.md measures such bakes against Cycles' answer (46 to 67 % off it)."),
+        divisions=(4, 16), values={"monte_carlo_rays": (16, 256, 1024), "rays_per_form_factor": (1, 16),
+                                   "max_shots": (300,), "near_field": (False,)},
+        combos=(("raycast", "progressive"),), presets=(),
+        base=(("monte_carlo_rays", LARGE_SCENE_MONTE_CARLO_RAYS), ("rays_per_form_factor", 4)), timeout=900.0,
+        note="Sponza is large for these methods: shooting to convergence takes about a shot per patch, each to "
+        "every patch and vertex, hours here. So every bake is what the add-on does by default from "
+        f"{LARGE_SCENE_TRIANGLES:,} triangles on (Monte Carlo \"Auto\", core/presets.py): the emitters shoot, "
+        "and the light they leave goes on by Monte Carlo (particles from the patches, then a final gather at the "
+        f"vertices: core/montecarlo.py) with {LARGE_SCENE_MONTE_CARLO_RAYS} gather rays per vertex unless swept, "
+        "and 4 rays per form factor unless swept (as docs/sponza.md). `max_shots`: the brightest patches shoot "
+        "too, this many shots in all, before Monte Carlo takes the rest. `near_field` off: every patch is read "
+        "as its mean. The patch size changes only the largest triangles (patches are never larger than the "
+        "input triangles and their pieces). Left out: Jacobi and Gauss-Seidel (a P x P matrix, hundreds of GB); "
+        "the hemicube, whose gather at the vertices alone takes minutes here (dense rows, O(vertices x "
+        "patches)); the presets, whose tolerances no bake reaches in minutes. The yardstick is not a bake of "
+        "ours but path tracing at random corners (below), so these errors are against the scene's light, as "
+        "docs/path_traced.md measures Cycles' bakes and ours."),
 }
 QUICK = {
     "parallel_squares": Sweep(divisions=(2, 4), values={"hemicube_resolution": (16,), "rays_per_form_factor": (4,),
@@ -145,9 +163,10 @@ QUICK = {
 REFERENCES = {
     "cornell": Reference("raycast", "jacobi", 24, (("probe_rays", False), ("rays_per_form_factor", 16),
                                                    ("tolerance", 1e-6))),
-    # ray casting: the hemicube's shooting through reciprocity, F_pq = A_q F_qp / A_p, gives Sponza's
-    # smallest patches radiosities up to 4.7 times the sky's emission
-    "sponza": Reference("raycast", "progressive", 4, (("max_shots", 2000), ("rays_per_form_factor", 4))),
+    # no bake of ours converges on Sponza: 32,000 paths at 1,000 corners cost what 80,000 at 400 do
+    # (0.56 % of noise in about 100 s: docs/path_traced.md), for 0.56 x sqrt(80 / 32) = 0.9 % of noise
+    # over 2.5 times the corners
+    "sponza": PathTraced(corners=1000, paths=32_000),
 }
 QUICK_REFERENCES = {
     "cornell": Reference("raycast", "jacobi", 4, (("rays_per_form_factor", 16), ("tolerance", 1e-6))),
@@ -157,16 +176,21 @@ QUICK_REFERENCES = {
 @dataclass
 class Target:
     """A scene and what its bakes are measured against: ``truth`` (T, 3, 3) values of the
-    BakeResult array ``quantity`` over the triangles ``compared``; for a benchmark scene also
-    ``truth_means`` (T, 3), the reference's triangle means (BakeResult.triangle_radiosity), and
-    ``reference``, the record of the reference bake (both None where the truth is exact)."""
+    BakeResult array ``quantity`` at the corners ``compared`` (an index into the (T, 3) corners:
+    a (T,) mask of triangles, all their corners, or a pair of (n,) arrays, triangles and corners);
+    for a benchmark scene also ``truth_means`` (T, 3), the reference's triangle means
+    (BakeResult.triangle_radiosity), and ``reference``, what the truth is: the reference bake's
+    record, or the path-traced answer's summary (without triangle means), None where the truth is
+    exact; ``truth_noise``: the truth's own noise (relative RMS), removed from every error in
+    quadrature."""
 
     scene: Scene
     quantity: str
-    compared: np.ndarray
+    compared: np.ndarray | tuple[np.ndarray, np.ndarray]
     truth: np.ndarray | None = None
     truth_means: np.ndarray | None = None
-    reference: Record | None = None
+    reference: Record | Answer | None = None
+    truth_noise: float = 0.0
 
 
 TARGETS: dict[str, Target] = {}  # filled before any fork, so the children inherit the scenes
@@ -304,12 +328,12 @@ def run(case: Case, repeats: int, timeout: float) -> tuple[Record, dict | None]:
 
 def score(record: Record, answer: dict, target: Target) -> None:
     """Set the record's errors: NRMSE (report.nrmse: RMS of the difference over the mean of the
-    truth) over R, G and B of every corner of the compared triangles, the share of its square
+    truth, its noise removed in quadrature) over R, G and B of every compared corner, the share of its square
     that the worst WORST_SHARE of those corners carry, and, against a reference, the NRMSE of the
     compared triangles' means."""
     compared = target.compared
     values, truth = answer["values"][compared], target.truth[compared]
-    record.error = report.nrmse(values, truth, scale="mean")
+    record.error = without_noise(report.nrmse(values, truth, scale="mean"), target.truth_noise)
     squares = np.sort(((values - truth) ** 2).sum(axis=-1).ravel())[::-1]
     worst = max(1, round(WORST_SHARE * len(squares)))
     record.worst_share = float(squares[:worst].sum() / squares.sum()) if squares.sum() > 0 else 0.0
@@ -326,15 +350,19 @@ def reference_case(name: str, scene: Scene, reference: Reference) -> Case:
                 ("reference",))
 
 
-def cached_reference(case: Case, timeout: float) -> tuple[Record, dict]:
-    """The reference bake's record and its corner values and triangle means, from CACHE if this
-    core baked it before (the record's status then says "cached"); references of other cores
-    are deleted."""
-    settings = hashlib.sha1(repr(case.key).encode()).hexdigest()[:12]
-    path = CACHE / f"{case.scene}-{CORE}-{settings}.npz"
-    for stale in CACHE.glob(f"{case.scene}-*.npz"):
+def cache_path(scene: str, what: object) -> Path:
+    """Where this core's truth of ``scene`` made as ``what`` (a repr-able description) is kept;
+    the truths of other cores are deleted."""
+    for stale in CACHE.glob(f"{scene}-*.npz"):
         if f"-{CORE}-" not in stale.name:
             stale.unlink()
+    return CACHE / f"{scene}-{CORE}-{hashlib.sha1(repr(what).encode()).hexdigest()[:12]}.npz"
+
+
+def cached_reference(case: Case, timeout: float) -> tuple[Record, dict]:
+    """The reference bake's record and its corner values and triangle means, from CACHE if this
+    core baked it before (the record's status then says "cached")."""
+    path = cache_path(case.scene, case.key)
     if path.exists():
         with np.load(path) as stored:
             saved = json.loads(str(stored["record"]))
@@ -349,6 +377,25 @@ def cached_reference(case: Case, timeout: float) -> tuple[Record, dict]:
     np.savez_compressed(path, values=answer["values"], means=answer["means"],
                         record=json.dumps(saved, default=_plain))
     return record, answer
+
+
+def cached_answer(name: str, traced: PathTraced) -> CornerAnswer:
+    """The path-traced answer at random corners of scene ``name`` (at the default patch size's
+    nodes), from CACHE if this core traced it before, else traced in a child (which, as a bake's,
+    starts without the thread pool or Embree scene of the parent)."""
+    path = cache_path(name, traced)
+    if path.exists():
+        with np.load(path) as stored:
+            return CornerAnswer(**{key: stored[key] for key in stored.files if key != "seconds"},
+                                seconds=float(stored["seconds"]))
+    scene = TARGETS[name].scene
+    status, answer = in_child(path_traced_corners, (scene, scene.extent / AUTO_PATCH_DIVISIONS, traced.corners,
+                                                    traced.paths), traced.timeout)
+    if answer is None:
+        raise RuntimeError(f"the {name} path tracing {status}")
+    CACHE.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, **vars(answer))
+    return answer
 
 
 def _plain(value):
@@ -413,11 +460,21 @@ def measure_all(sweeps: dict[str, Sweep], references: dict[str, Reference], quic
     header = machine.machine() | tradeoff_doc.load("start", not quick)
     print(", ".join(f"{key}: {value}" for key, value in header.items()), flush=True)
     for name, reference in references.items():
-        if name in TARGETS:
-            print(f"{name}: reference bake ...", flush=True)
-            record, answer = cached_reference(reference_case(name, TARGETS[name].scene, reference), reference.timeout)
-            target = TARGETS[name]
-            target.truth, target.truth_means, target.reference = answer["values"], answer["means"], record
+        if name not in TARGETS:
+            continue
+        target = TARGETS[name]
+        if isinstance(reference, PathTraced):
+            print(f"{name}: path tracing at {reference.corners:,} corners ...", flush=True)
+            traced = cached_answer(name, reference)
+            target.compared = traced.triangles, traced.corners
+            target.truth = np.zeros((len(target.scene.triangles), 3, traced.radiosity.shape[1]))
+            target.truth[target.compared] = traced.radiosity
+            target.truth_noise = traced.noise
+            target.reference = Answer(reference.corners, reference.paths, traced.noise, traced.seconds)
+            continue
+        print(f"{name}: reference bake ...", flush=True)
+        record, answer = cached_reference(reference_case(name, target.scene, reference), reference.timeout)
+        target.truth, target.truth_means, target.reference = answer["values"], answer["means"], record
     results = {}
     for name, sweep in sweeps.items():
         print(f"{name}: {tradeoff_doc.describe(name)}", flush=True)

@@ -8,7 +8,8 @@ import exact
 import machine
 import report
 import scenes
-from records import Record, Run, pareto_front
+from cycles_metrics import pct
+from records import Answer, Record, Run, pareto_front
 
 from core.bake import AUTO_PATCH_DIVISIONS
 
@@ -123,10 +124,17 @@ def summary(results: dict[str, list[Record]]) -> list[str]:
     return lines
 
 
-def truth_line(reference: Record | None, quantity: str) -> str:
-    """What the scene's bakes are measured against: the exact ``quantity`` or ``reference``."""
+def truth_line(reference: Record | Answer | None, quantity: str) -> str:
+    """What the scene's bakes are measured against: the exact ``quantity``, the reference bake or
+    the path-traced answer."""
     if reference is None:
         return f"Exact truth (`{quantity}` of the corners of the compared triangles)."
+    if isinstance(reference, Answer):
+        return (f"Answer: path tracing (core/pathtrace.py, bench/corner_answer.py) at {reference.corners:,} random "
+                f"corners of the non-emitting triangles, each where a bake reads it (its node), {reference.paths:,} "
+                f"paths each ({reference.seconds:.0f} s). Its noise, {pct(reference.noise)} of the mean in RMS, is "
+                "removed from every error below in quadrature. Errors are measured at those corners only (the worst 5 "
+                "% share too); no triangle means are compared.")
     r = reference
     stats = r.stats
     converged = (f"unshot fraction {stats['unshot_fraction']:.3g}" if "unshot_fraction" in stats
@@ -171,8 +179,9 @@ def markdown(run: Run, notes: dict[str, str], figures: list[Path]) -> str:
         "stacks alike.",
         "- Error: NRMSE = RMS of the difference over the mean of the truth, over R, G and B of every corner of the "
         "compared triangles (the non-emitting ones, except in the furnace where all emit): against the exact value "
-        "where there is one, otherwise against the scene's converged reference (cached in build/tradeoffs_cache/ "
-        "under a digest of core/). `estimate` is the bake's own `stats[\"error_estimate\"][\"total\"]`, where the "
+        "where there is one, otherwise against the scene's converged reference, or where no bake of ours converges "
+        "(Sponza) against path tracing at random corners, with its noise removed in quadrature (both cached in "
+        "build/tradeoffs_cache/ under a digest of core/). `estimate` is the bake's own `stats[\"error_estimate\"][\"total\"]`, where the "
         "core reports it. `worst 5 % share`: the share of the corners' squared error carried by the worst 5 % of "
         "them (5 % when the error is spread evenly, near 100 % when a few corners carry it). `NRMSE triangle "
         "means`: the same over the triangles' area means (`triangle_radiosity`), against the reference.",

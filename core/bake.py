@@ -97,6 +97,8 @@ class BakeSettings:
         for name in ("hemicube_resolution", "rays_per_form_factor", "max_iterations", "memory_budget", "column_cache"):
             if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 0:
                 raise ValueError(f"{name} must be a non-negative integer, got {getattr(self, name)}")
+        if self.max_shots is not None and (int(self.max_shots) != self.max_shots or self.max_shots < 0):
+            raise ValueError(f"max_shots must be a non-negative integer or None, got {self.max_shots}")
         check_ray_count(self.rays_per_form_factor)
         if self.monte_carlo_rays:
             montecarlo.check_gather_rays(self.monte_carlo_rays)

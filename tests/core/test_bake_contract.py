@@ -53,6 +53,9 @@ def test_unknown_method_solver_or_knob_is_refused():
         bake(scene, patch_size=-1.0)
     with pytest.raises(ValueError, match=r"tolerance must be in \(0, 1\)"):
         bake(scene, tolerance=0)
+    for shots in (-1, 2.5):
+        with pytest.raises(ValueError, match="max_shots must be a non-negative integer or None"):
+            bake(scene, max_shots=shots)
 
 
 def test_the_same_seed_gives_the_same_bake_and_another_seed_a_close_one():

@@ -1,9 +1,9 @@
-"""The core scene of build/sponza/sponza.blend as the add-on reads it (its fields, as arrays), with
-the (object name, loop) each triangle corner's colour is written to, pickled to the path given: for
-bench/path_traced.py, in a process of its own (bench/path_traced.py imports bench/cycles.py as
-``cycles``, the name of Blender's own add-on).
+"""The core scene of a .blend as the add-on reads it (its fields, as arrays), with the (object
+name, loop) each triangle corner's colour is written to, pickled to the path given: for
+bench/path_traced.py (Sponza's .blend and the sample Cornell box), in a process of its own
+(bench/path_traced.py imports bench/cycles.py as ``cycles``, the name of Blender's own add-on).
 
-Run: ``.venv/bin/python bench/sponza_scene.py BLEND OUT.pkl``.
+Run: ``.venv/bin/python bench/blend_scene.py BLEND OUT.pkl``.
 """
 
 from __future__ import annotations

@@ -1,0 +1,56 @@
+"""The path-traced answer at random triangle corners of a scene, each where a bake reads it (its
+node), for scenes where no bake of ours converges: the Sponza rows of the trade-off sweep
+(bench/sweep.py) and the scoring of Sponza's bakes against Cycles' (bench/path_traced.py).
+
+Path tracing (core/pathtrace.py) reads only the patches' geometry, reflectance and emission, not
+their radiosity, so it is independent of the solvers and of the bake's knobs but its seed."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from core import Scene
+from core.bake import BakeSettings, discretised
+from core.pathtrace import path_traced
+from core.visibility import Visibility
+
+SELECTION_SEED = 7  # which corners are chosen
+PATH_SEED = 1
+
+
+@dataclass
+class CornerAnswer:
+    """B at ``triangles``, ``corners`` (n,) each: ``radiosity`` (n, C), its ``standard_error``
+    (n, C) from the spread of the paths, and the ``seconds`` the paths took."""
+
+    triangles: np.ndarray
+    corners: np.ndarray
+    radiosity: np.ndarray
+    standard_error: np.ndarray
+    seconds: float
+
+    @property
+    def noise(self) -> float:
+        """The answer's own noise: RMS of the standard errors over the mean radiosity."""
+        return float(np.sqrt((self.standard_error**2).mean()) / self.radiosity.mean())
+
+
+def path_traced_corners(scene: Scene, patch_size: float, count: int, paths: int) -> CornerAnswer:
+    """B = E + rho G at ``count`` random corners of non-emitting triangles (drawn with
+    SELECTION_SEED among those with a node), G path-traced with ``paths`` paths at each corner's
+    node, on the patches of a default bake of ``patch_size``."""
+    mesh, _ = discretised(scene, BakeSettings(patch_size=patch_size))
+    front = mesh.front_patch_count
+    visibility = Visibility(mesh.patch_corners[:front], two_sided=mesh.back_of_front >= 0,
+                            owners=mesh.patch_triangle[:front])
+    candidates = np.argwhere((mesh.corner_node >= 0) & ~scene.emission.any(axis=1)[:, None])
+    chosen = candidates[np.random.default_rng(SELECTION_SEED).choice(len(candidates), count, replace=False)]
+    nodes = mesh.corner_node[chosen[:, 0], chosen[:, 1]]
+    start = time.perf_counter()
+    found = path_traced(mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes], paths, seed=PATH_SEED)
+    reflectance = mesh.node_reflectance[nodes]
+    return CornerAnswer(chosen[:, 0], chosen[:, 1], mesh.node_emission[nodes] + reflectance * found.light,
+                        reflectance * found.standard_error, time.perf_counter() - start)
