@@ -48,11 +48,22 @@ def write_all(results: dict[str, list[Record]], output: Path, estimated: list[st
     return paths
 
 
+def knob_value(record: Record, knob: str) -> float:
+    """Where a point lies along the knob: the patch size's divisions of the extent, the shots
+    taken for ``max_shots`` (None, its default, stops where the solver does; 0 for the explicit
+    solvers, which take none), else the knob."""
+    if knob == "patch_size":
+        return record.case.divisions
+    if knob == "max_shots":
+        return record.stats.get("shots", 0)
+    return record.case.knob(knob)
+
+
 def point_label(record: Record, knob: str) -> str:
     """The knob's value at a point, short: "/8", "128", "16", "1e-03"."""
+    value = knob_value(record, knob)
     if knob == "patch_size":
-        return f"/{record.case.divisions}"
-    value = record.case.knob(knob)
+        return f"/{value}"
     return f"{value:.0e}" if knob == "tolerance" else f"{value:g}"
 
 
@@ -61,8 +72,7 @@ def curve(records: list[Record], combo: tuple[str, str], knob: str) -> list[Reco
     bake lies on every curve, so a curve of one record means the knob was not varied."""
     on = [r for r in records if r.ok and (r.case.method, r.case.solver) == combo
           and (knob in r.case.tags or "default" in r.case.tags)]
-    value = (lambda r: r.case.divisions) if knob == "patch_size" else (lambda r: r.case.knob(knob))
-    return sorted(on, key=value)
+    return sorted(on, key=lambda r: knob_value(r, knob))
 
 
 def _error(record: Record) -> float:
