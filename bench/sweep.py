@@ -148,7 +148,7 @@ FULL = {
         "input triangles and their pieces). Left out: Jacobi and Gauss-Seidel (a P x P matrix, hundreds of GB); "
         "the hemicube, whose gather at the vertices alone takes minutes here (dense rows, O(vertices x "
         "patches)); the presets, whose tolerances no bake reaches in minutes. The yardstick is not a bake of "
-        "ours but path tracing at random corners (below), so these errors are against the scene's light, as "
+        "ours but path tracing at random corners (above), so these errors are against the scene's light, as "
         "docs/path_traced.md measures Cycles' bakes and ours."),
 }
 QUICK = {
