@@ -102,8 +102,10 @@ def points_in_boxes(points: np.ndarray, low: np.ndarray, high: np.ndarray,
         return _joined([accept(chunk, np.full(len(chunk), box))  # every point, PAIRS_PER_BLOCK at once
                         for chunk in np.array_split(everything, -(-len(points) // PAIRS_PER_BLOCK))])
 
-    if len(points) * len(low) <= EVERY_PAIR:
-        return accept(np.tile(everything, len(low)), np.repeat(np.arange(len(low)), len(points)))
+    if len(points) * len(low) <= EVERY_PAIR:  # every pair, the boxes split among the threads
+        shares = np.array_split(np.arange(len(low)), min(parallel.THREADS, len(low)))
+        return _joined(list(parallel.map_ordered(
+            lambda boxes: accept(np.tile(everything, len(boxes)), np.repeat(boxes, len(points))), shares)))
     small = np.flatnonzero(~large)
     bounds = np.searchsorted(np.cumsum(listed[small]), np.arange(LISTINGS_PER_BLOCK, listed[small].sum(),
                                                                   LISTINGS_PER_BLOCK))
