@@ -1,6 +1,7 @@
 """Speed against accuracy of bake(): each knob swept one at a time around the defaults, for each
 method with each solver, plus the presets of core.presets, on scenes with an exact answer
-(bench/exact.py) and on the benchmark scenes (bench/scenes.py) against a converged reference;
+(bench/exact.py) and on the benchmark scenes (bench/scenes.py) against a converged reference, or
+where no bake of ours converges (Sponza) against path tracing at random corners (bench/corner_answer.py);
 writes docs/tradeoffs.md and docs/tradeoffs_*.png and prints each scene's Pareto front.
 
 Run from the repository root: ``.venv/bin/python bench/sweep.py`` (``make bench`` runs it after

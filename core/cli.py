@@ -68,8 +68,8 @@ def main(argv: list[str] | None = None) -> int:
         if arguments.subdivide > 1:
             scene = subdivide(scene, arguments.subdivide)
         monte_carlo_rays = arguments.monte_carlo_rays
-        if monte_carlo_rays is None:
-            monte_carlo_rays = auto_monte_carlo_rays(len(scene.triangles)) if arguments.solver == "progressive" else 0
+        if monte_carlo_rays is None:  # auto, as the add-on's (the explicit solvers ignore it)
+            monte_carlo_rays = auto_monte_carlo_rays(len(scene.triangles))
         result = bake(
             scene, arguments.method, arguments.solver, patch_size=arguments.patch_size,
             rays_per_form_factor=arguments.rays, hemicube_resolution=arguments.resolution,
