@@ -131,11 +131,13 @@ def discretised(scene: Scene, settings: BakeSettings, report: Callable[[float], 
                 ) -> tuple[Discretization, simplify.Panels | None]:
     """The patches and nodes ``bake`` solves on, and the panels they were cut from: with
     ``merge_flat`` flat regions of small triangles merged (``simplify``; else None), cut into
-    patches of ``patch_size`` (by default the scene's extent / AUTO_PATCH_DIVISIONS)."""
+    patches of ``patch_size`` (by default the scene's extent / AUTO_PATCH_DIVISIONS), without
+    the back faces no surface sees (``discretize``'s ``hidden_backs``)."""
     patch_size = _patch_size(scene, settings)
     crease = math.radians(settings.crease_angle)
     panels = simplify.panels(scene, patch_size, lambda f: report(f / 2)) if settings.merge_flat else None
-    return discretize(scene, patch_size, crease, lambda f: report(0.5 + f / 2), panels=panels), panels
+    return discretize(scene, patch_size, crease, lambda f: report(0.5 + f / 2), panels=panels,
+                      hidden_backs=False), panels
 
 
 def bake(

@@ -17,9 +17,10 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 from . import contacts
-from .geometry import areas_and_normals, longest_edges, subdivide, triangle_corners
+from .geometry import areas_and_normals, enclosing, longest_edges, subdivide, triangle_corners
 from .raycast import light_divisions
 from .scene import Scene
+from .visibility import RAY_EPSILON
 
 if TYPE_CHECKING:
     from .simplify import Panels
@@ -61,7 +62,8 @@ class Discretization:
         ``simplify.Panels`` the merged triangle of a flat region.
     patch_piece : (P,) int, the piece of its input triangle a patch lies in when other surfaces
         cut the triangle (``contacts``; pieces on either side of a contact line differ), else -1.
-    front_patch_count : patches [0, F) are front sides, [F, P) the backs of two-sided triangles.
+    front_patch_count : patches [0, F) are front sides, [F, P) the backs of two-sided triangles
+        (unless ``discretize`` leaves out the hidden ones).
     back_of_front : (F,) int, index of the back patch of each front patch, or -1.
     node_points, node_normals : (N, 3) where and facing which way each node is evaluated.
     node_reflectance, node_emission : (N, C).
@@ -101,14 +103,16 @@ class Discretization:
 
 def discretize(scene: Scene, patch_size: float | None = None, crease_angle: float = np.radians(30),
                report: Callable[[float], None] = lambda _fraction: None, cut_contacts: bool = True,
-               panels: Panels | None = None) -> Discretization:
+               panels: Panels | None = None, hidden_backs: bool = True) -> Discretization:
     """Split ``scene`` (or its ``panels``, ``simplify``) into patches no longer than
     ``patch_size`` (None: one patch per triangle), after cutting its triangles along contact
     lines (unless not ``cut_contacts``), and group the corners of ``scene``'s triangles into
     receiver nodes (``crease_angle`` in radians); ``report`` hears the fraction done between
-    steps."""
+    steps. Without ``hidden_backs``, a two-sided triangle with the whole scene in front of it
+    (``geometry.enclosing``: a room's wall) gets no back patch: no point of a surface sees its
+    back, and light it sent back would reach no surface (a bake's receivers all lie on them)."""
     source = scene if panels is None else panels.scene
-    patches = _patches(source, patch_size, cut_contacts)
+    patches = _patches(source, patch_size, cut_contacts, hidden_backs)
     report(0.4)
     # with panels, each node is evaluated on its panel (a vertex of a near-flat region may lie
     # off it by up to simplify.FLATNESS of its size), so its own surface's patches never hide it
@@ -123,7 +127,7 @@ def discretize(scene: Scene, patch_size: float | None = None, crease_angle: floa
                           panel_node=panel_node)
 
 
-def _patches(scene: Scene, patch_size: float | None, cut_contacts: bool) -> dict:
+def _patches(scene: Scene, patch_size: float | None, cut_contacts: bool, hidden_backs: bool) -> dict:
     corners = triangle_corners(scene.vertices, scene.triangles)
     areas, normals = areas_and_normals(corners)
     degenerate = areas <= DEGENERATE_AREA_RATIO * longest_edges(corners) ** 2
@@ -145,7 +149,10 @@ def _patches(scene: Scene, patch_size: float | None, cut_contacts: bool) -> dict
     patch_piece = np.where(cut, np.arange(len(pieces)), -1)[front["triangle"]]
     sides = [front["corners"]]
     back_of_front = np.full(len(patch_triangle), -1, dtype=np.int64)
-    back = np.flatnonzero(scene.two_sided[patch_triangle])
+    two_sided = scene.two_sided
+    if not hidden_backs:
+        two_sided = two_sided & ~enclosing(corners, RAY_EPSILON * scene.extent)
+    back = np.flatnonzero(two_sided[patch_triangle])
     if len(back):
         back_of_front[back] = len(patch_triangle) + np.arange(len(back))
         sides.append(front["corners"][back][:, ::-1])

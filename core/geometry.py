@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+# ``enclosing`` tests every point against every plane, up to this many pairs (a large scene is not
+# a room, and is left without).
+ENCLOSING_PAIRS = 1 << 25
+
 
 def triangle_corners(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """(T, 3, 3) float64 corner positions of each triangle."""
@@ -79,3 +83,23 @@ def barycentric(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     weight_a = np.einsum("kx,kx->k", np.cross(c - b, points - b), normal) / total
     weight_b = np.einsum("kx,kx->k", np.cross(a - c, points - c), normal) / total
     return np.stack([weight_a, weight_b, 1 - weight_a - weight_b], axis=1)
+
+
+def enclosing(corners: np.ndarray, tolerance: float) -> np.ndarray:
+    """(T,) bool: the triangles (T, 3, 3) with every corner of the set at most ``tolerance`` behind
+    their plane, as a room's walls; degenerate ones are not. None are when that is more than
+    ENCLOSING_PAIRS tests. Nothing lies behind such a triangle: a segment between two points of
+    the set's surfaces stays in the closed half-space before it, and its back faces no surface."""
+    result = np.zeros(len(corners), dtype=bool)
+    if len(corners) ** 2 // 2 > ENCLOSING_PAIRS:  # a closed mesh has about half as many vertices as triangles
+        return result
+    points = np.unique(corners.reshape(-1, 3), axis=0)
+    if len(points) * len(corners) > ENCLOSING_PAIRS:
+        return result
+    normals = areas_and_normals(corners)[1]
+    offsets = np.einsum("tx,tx->t", normals, corners[:, 0])
+    rows = max(1, ENCLOSING_PAIRS // 64 // len(points))  # about 4 MiB of heights at a time
+    for start in range(0, len(corners), rows):
+        planes = slice(start, start + rows)
+        result[planes] = (points @ normals[planes].T).min(axis=0) - offsets[planes] >= -tolerance
+    return result & normals.any(axis=1)

@@ -92,11 +92,13 @@ class RayCaster:
     def __init__(self, patch_corners, patch_normals, patch_areas, visibility: Visibility, rays: int, seed: int,
                  patch_owners: np.ndarray | None = None, probing: bool = False, emitting: np.ndarray | None = None):
         """``patch_owners`` (P,): the surface (``visibility.owners``) each patch lies on, or None
-        for sources that are not among the occluders (area lights). With ``probing``, the probe
-        samples (``probe_samples``: 4 of 16, 16 of 64) are cast first and the rest only where
-        those disagree:
-        about half the time of a bake, but a shadow edge that crosses a source between the
-        probes is missed (a blocker's form factor 1 % off in tests/core/test_occlusion.py).
+        for sources that are not among the occluders (area lights). With patches, the points
+        asked about must lie on the surfaces, facing away from them (as a bake's receivers do):
+        the walls with the whole scene in front of them are not traced
+        (``Visibility.occluded_between_unit``). With ``probing``, the probe samples
+        (``probe_samples``: 4 of 16, 16 of 64) are cast first and the rest only where those
+        disagree: about half the time of a bake, but a shadow edge that crosses a source between
+        the probes is missed (a blocker's form factor 1 % off in tests/core/test_occlusion.py).
         ``emitting`` (P,) bool: the patches sampled with CLOSE_RAYS from close by (when more than
         ``rays``)."""
         self.corners = patch_corners
@@ -225,14 +227,16 @@ class RayCaster:
         across = np.maximum(-cos_source, np.finfo(np.float32).tiny).reshape(-1)
         # stop RAY_EPSILON short of the source's plane, measured across it: a grazing ray then
         # cannot hit its own source through the rounding of the sample onto float32
-        if self.owners is None:
+        if self.owners is None:  # a light, which may lie beyond the walls
             return self.visibility.occluded_unit(starts, directions, 1 - RAY_EPSILON / across).reshape(-1, rays)
+        # from a point of the surfaces to a patch: a wall with everything in front of it cannot block
+        occluded = self.visibility.occluded_between_unit
         contested = np.repeat(self._contested[sources], rays)
         if not contested.any():
-            return self.visibility.occluded_unit(starts, directions, 1 - RAY_EPSILON / across).reshape(-1, rays)
+            return occluded(starts, directions, 1 - RAY_EPSILON / across).reshape(-1, rays)
         blocked = np.zeros(len(starts), dtype=bool)
         free = np.flatnonzero(~contested)
-        blocked[free] = self.visibility.occluded_unit(starts[free], directions[free], 1 - RAY_EPSILON / across[free])
+        blocked[free] = occluded(starts[free], directions[free], 1 - RAY_EPSILON / across[free])
         chosen = np.flatnonzero(contested)
         blocked[chosen] = self._first_hit_blocked(starts[chosen], directions[chosen], across[chosen],
                                                   np.repeat(self.owners[sources], rays)[chosen])
