@@ -27,13 +27,13 @@ class Preset(NamedTuple):
 # uses them. The descriptions quote the measured time and error.
 PRESETS: dict[str, Preset] = {
     "DRAFT": Preset("Draft", "Patches a quarter of the scene, 16 rays, 1 % of the light unshot. "
-                    "Cornell box: 0.4 s, 4.6 % from converged", 4, 16, 1e-2),
+                    "Cornell box: 0.3 s, 4.6 % from converged", 4, 16, 1e-2),
     "PREVIEW": Preset("Preview", "The defaults: patches an eighth of the scene, 16 rays, 0.1 % unshot. "
-                      "Cornell box: 1.1 s, 0.65 % from converged", 8, 16, 1e-3),
+                      "Cornell box: 0.9 s, 0.65 % from converged", 8, 16, 1e-3),
     "PRODUCTION": Preset("Production", "Patches a twelfth of the scene, 16 rays, 0.1 % unshot. "
-                         "Cornell box: 3.5 s, 0.33 % from converged", 12, 16, 1e-3),
+                         "Cornell box: 3.1 s, 0.34 % from converged", 12, 16, 1e-3),
     "REFERENCE": Preset("Reference", "Patches a sixteenth of the scene, 16 rays, 0.01 % unshot: to check other "
-                        "bakes against. Cornell box: 9 s, 0.26 % from converged", 16, 16, 1e-4),
+                        "bakes against. Cornell box: 8 s, 0.26 % from converged", 16, 16, 1e-4),
 }
 
 
@@ -58,7 +58,7 @@ def preset_knobs(name: str, extent: float) -> dict:
 # in 68 s (docs/sponza.md). 256 rays (73 s; 8.6 and 4.5 %) buy more per second against path
 # tracing (3.1 times Cycles' speed at equal error, against 2.0) and less against Cycles' answer
 # (0.56 against 0.59): the default stays the quicker bake. The 40 x 40 Cornell box
-# (20,348 triangles on 738 panels) still converges, in 7.8 s (docs/fine_mesh.md).
+# (20,348 triangles on 738 panels) still converges, in 7.2 s (docs/fine_mesh.md).
 LARGE_SCENE_TRIANGLES = 50_000
 LARGE_SCENE_MONTE_CARLO_RAYS = 64
 

@@ -107,7 +107,8 @@ class RadiositySettings(bpy.types.PropertyGroup):
     )
     two_sided: bpy.props.BoolProperty(
         name="Two-Sided Surfaces", default=True,
-        description="Surfaces reflect and emit on both sides, as in Cycles; off halves the patches",
+        description="Surfaces reflect and emit on both sides, as in Cycles (but a wall with the whole scene "
+        "in front of it, whose back nothing sees); off: front sides only, fewer patches",
     )
     vertex_normals: bpy.props.EnumProperty(
         name="Vertex Colours",
