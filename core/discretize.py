@@ -17,10 +17,9 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 from . import contacts
-from .geometry import areas_and_normals, enclosing, longest_edges, subdivide, triangle_corners
+from .geometry import ENCLOSING_TOLERANCE, areas_and_normals, enclosing, longest_edges, subdivide, triangle_corners
 from .raycast import light_divisions
 from .scene import Scene
-from .visibility import RAY_EPSILON
 
 if TYPE_CHECKING:
     from .simplify import Panels
@@ -151,7 +150,7 @@ def _patches(scene: Scene, patch_size: float | None, cut_contacts: bool, hidden_
     back_of_front = np.full(len(patch_triangle), -1, dtype=np.int64)
     two_sided = scene.two_sided
     if not hidden_backs:
-        two_sided = two_sided & ~enclosing(corners, RAY_EPSILON * scene.extent)
+        two_sided = two_sided & ~enclosing(corners, ENCLOSING_TOLERANCE * scene.extent)
     back = np.flatnonzero(two_sided[patch_triangle])
     if len(back):
         back_of_front[back] = len(patch_triangle) + np.arange(len(back))
@@ -262,14 +261,25 @@ def _receiver_nodes(scene: Scene, crease_angle: float,
         node_normals = mean(scene.corner_normals.reshape(-1, 3)[valid_corners])
     node_normals /= np.linalg.norm(node_normals, axis=1, keepdims=True)
     positions = np.zeros((group_count, 3))
-    positions[corner_group] = (corners if corner_points is None else corner_points).reshape(-1, 3)[valid_corners]
+    evaluated = (corners if corner_points is None else corner_points).reshape(-1, 3)[valid_corners]
+    positions[corner_group] = evaluated
     towards_faces = mean(corners.mean(axis=1)[triangle_of]) - positions
     towards_faces -= (towards_faces * node_normals).sum(axis=1, keepdims=True) * node_normals
+    points = positions + inset(towards_faces, scene.extent)
+    # in the tangent plane of a smooth normal the step can leave a concave corner's faces behind
+    # (a room's corner shaded smooth: the node would see the room through its walls), so the node
+    # is lifted along its normal until it is on or in front of each of its faces
+    height = np.einsum("cx,cx->c", normals[triangle_of], points[corner_group] - evaluated)
+    facing = np.einsum("cx,cx->c", normals[triangle_of], node_normals[corner_group])
+    behind = np.flatnonzero((height < -WELD_TOLERANCE * scene.extent) & (facing > 0))
+    lift = np.zeros(group_count)
+    np.maximum.at(lift, corner_group[behind], -height[behind] / facing[behind])
+    points += lift[:, None] * node_normals
     corner_node = np.full(triangle_count * 3, -1, dtype=np.int64)
     corner_node[valid_corners] = corner_group
     _borrow_neighbour_nodes(corner_node, weld.ravel(), scene.material[np.arange(triangle_count * 3) // 3])
     return {
-        "node_points": positions + inset(towards_faces, scene.extent),
+        "node_points": points,
         "node_normals": node_normals,
         "node_reflectance": mean(scene.reflectance[triangle_of]),
         "node_emission": mean(scene.emission[triangle_of]),

@@ -5,8 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 # ``enclosing`` tests every point against every plane, up to this many pairs (a large scene is not
-# a room, and is left without).
+# a room, and is left without); a point this far behind a plane, as a fraction of the scene's
+# extent, counts as on it (float32 coordinates resolve about 6e-8 of it).
 ENCLOSING_PAIRS = 1 << 25
+ENCLOSING_TOLERANCE = 1e-7
 
 
 def triangle_corners(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -88,8 +90,9 @@ def barycentric(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 def enclosing(corners: np.ndarray, tolerance: float) -> np.ndarray:
     """(T,) bool: the triangles (T, 3, 3) with every corner of the set at most ``tolerance`` behind
     their plane, as a room's walls; degenerate ones are not. None are when that is more than
-    ENCLOSING_PAIRS tests. Nothing lies behind such a triangle: a segment between two points of
-    the set's surfaces stays in the closed half-space before it, and its back faces no surface."""
+    ENCLOSING_PAIRS tests. Nothing lies behind such a triangle (up to ``tolerance``): a segment
+    between two points on or in front of it stays in the closed half-space before it, and its
+    back faces no surface."""
     result = np.zeros(len(corners), dtype=bool)
     if len(corners) ** 2 // 2 > ENCLOSING_PAIRS:  # a closed mesh has about half as many vertices as triangles
         return result

@@ -93,8 +93,8 @@ class RayCaster:
                  patch_owners: np.ndarray | None = None, probing: bool = False, emitting: np.ndarray | None = None):
         """``patch_owners`` (P,): the surface (``visibility.owners``) each patch lies on, or None
         for sources that are not among the occluders (area lights). With patches, the points
-        asked about must lie on the surfaces, facing away from them (as a bake's receivers do):
-        the walls with the whole scene in front of them are not traced
+        asked about must lie on or in front of the surfaces (as a bake's receivers do): the
+        walls with the whole scene in front of them are not traced
         (``Visibility.occluded_between_unit``). With ``probing``, the probe samples
         (``probe_samples``: 4 of 16, 16 of 64) are cast first and the rest only where those
         disagree: about half the time of a bake, but a shadow edge that crosses a source between

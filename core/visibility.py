@@ -14,7 +14,7 @@ import threading
 import numpy as np
 
 from .contacts import coplanar_overlap_pairs
-from .geometry import areas_and_normals, enclosing
+from .geometry import ENCLOSING_TOLERANCE, areas_and_normals, enclosing
 from .numpy_tracer import NumpyTracer
 
 # Rays start and stop this far (in unit space, where the scene's extent is 1) from their end points, so a ray does not hit the surface it leaves or the one it aims at (float32
@@ -54,8 +54,9 @@ class Visibility:
     coplanar_pairs : (a, b), each b a triangle of another owner lying over a in its plane, each
         pair both ways (``contacts.coplanar_overlap_pairs``).
     coplanar_overlaps : (P,) bool, whether a triangle has any.
-    enclosing : (P,) bool, the triangles with every corner in front of them (``geometry.enclosing``),
-        as a room's walls: ``occluded_between_unit`` leaves them out.
+    enclosing : (P,) bool, the triangles with every corner on or in front of their plane
+        (``geometry.enclosing``, to ENCLOSING_TOLERANCE), as a room's walls:
+        ``occluded_between_unit`` leaves them out.
     """
 
     def __init__(self, corners: np.ndarray, backend: str | None = None, two_sided: np.ndarray | None = None,
@@ -87,8 +88,7 @@ class Visibility:
         self.coplanar_overlaps[self.coplanar_pairs[0]] = True
         # n . x of each triangle's plane in unit space, float64 (``raycast`` tells coplanar faces apart)
         self.unit_plane_offsets = (self.triangle_normals * unit_corners[:, 0].astype(np.float64)).sum(axis=1)
-        # (in unit space, where the rays are traced)
-        self.enclosing = enclosing(unit_corners.astype(np.float64), RAY_EPSILON)
+        self.enclosing = enclosing(np.asarray(corners, dtype=np.float64), ENCLOSING_TOLERANCE / self.scale)
         inner = unit_corners[~self.enclosing]
         self._scene = _traced(backend, unit_corners)
         self._inner = (None if len(inner) == 0 else self._scene if len(inner) == len(unit_corners)
@@ -109,25 +109,24 @@ class Visibility:
         """(n,) bool: whether a triangle lies on each ray start + t direction, 0 <= t < reach,
         from starts (n, 3) along directions (n, 3, any length), in unit space (see
         ``to_unit``); a ray with reach <= 0 is not blocked."""
-        blocked = np.zeros(len(starts), dtype=bool)
-        test = np.flatnonzero(reach > 0)
-        if len(test) == len(starts):
-            return self._run(starts, directions, reach, "OCCLUDED") != -1
-        if len(test):
-            blocked[test] = self._run(starts[test], directions[test], reach[test], "OCCLUDED") != -1
-        return blocked
+        return self._occluded(starts, directions, reach, self._scene)
 
     def occluded_between_unit(self, starts: np.ndarray, directions: np.ndarray, reach: np.ndarray) -> np.ndarray:
-        """``occluded_unit`` for rays from points of the triangles' surfaces, lifted off them to
-        their front, to points of those surfaces: no ``enclosing`` triangle can block them, so
-        none is traced (the same answers, fewer triangles: the sample Cornell box's walls, 650 of
-        its 904)."""
+        """``occluded_unit`` for rays from points on or in front of the triangles' surfaces
+        (lifted off them to their front) to points of those surfaces: no ``enclosing`` triangle
+        can block them, so none is traced (the same answers, fewer triangles: the sample
+        Cornell box's walls, 650 of its 904)."""
         if self._inner is None:
             return np.zeros(len(starts), dtype=bool)
-        blocked = np.zeros(len(starts), dtype=bool)
+        return self._occluded(starts, directions, reach, self._inner)
+
+    def _occluded(self, starts, directions, reach, scene) -> np.ndarray:
         test = np.flatnonzero(reach > 0)
+        if len(test) == len(starts):
+            return self._run(starts, directions, reach, "OCCLUDED", scene) != -1
+        blocked = np.zeros(len(starts), dtype=bool)
         if len(test):
-            blocked[test] = self._run(starts[test], directions[test], reach[test], "OCCLUDED", self._inner) != -1
+            blocked[test] = self._run(starts[test], directions[test], reach[test], "OCCLUDED", scene) != -1
         return blocked
 
     def first_hit_unit(self, starts: np.ndarray, directions: np.ndarray, reach: np.ndarray) -> np.ndarray:
@@ -164,4 +163,3 @@ def _traced(backend: str, triangles: np.ndarray):
     # is preparing rays, rather than inside the first block of work
     scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
     return scene
-
