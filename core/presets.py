@@ -31,9 +31,9 @@ PRESETS: dict[str, Preset] = {
     "PREVIEW": Preset("Preview", "The defaults: patches an eighth of the scene, 16 rays, 0.1 % unshot. "
                       "Cornell box: 0.9 s, 0.65 % from converged", 8, 16, 1e-3),
     "PRODUCTION": Preset("Production", "Patches a twelfth of the scene, 16 rays, 0.1 % unshot. "
-                         "Cornell box: 3.1 s, 0.34 % from converged", 12, 16, 1e-3),
+                         "Cornell box: 2.9 s, 0.34 % from converged", 12, 16, 1e-3),
     "REFERENCE": Preset("Reference", "Patches a sixteenth of the scene, 16 rays, 0.01 % unshot: to check other "
-                        "bakes against. Cornell box: 8 s, 0.26 % from converged", 16, 16, 1e-4),
+                        "bakes against. Cornell box: 7 s, 0.26 % from converged", 16, 16, 1e-4),
 }
 
 
@@ -53,11 +53,11 @@ def preset_knobs(name: str, extent: float) -> dict:
 # From this many triangles on, "Auto" (the add-on's default) carries the light left after the
 # emitters' shots by Monte Carlo (``monte_carlo_rays``): progressive refinement needs about a shot per
 # patch to converge and a shot costs a form factor at every receiver, so Sponza (66,456 triangles)
-# would take hours; there Monte Carlo with 64 rays bakes in 55 s at 9.7 % from Cycles' answer
+# would take hours; there Monte Carlo with 64 rays bakes in 51 s at 9.7 % from Cycles' answer
 # (6.3 % from path tracing, docs/path_traced.md), against 51 % for 300 shots and the ambient term
-# in 68 s (docs/sponza.md). 256 rays (73 s; 8.6 and 4.5 %) buy more per second against path
-# tracing (3.1 times Cycles' speed at equal error, against 2.0) and less against Cycles' answer
-# (0.56 against 0.59): the default stays the quicker bake. The 40 x 40 Cornell box
+# in 65 s (docs/sponza.md). 256 rays (68 s; 8.6 and 4.5 %) buy more per second against path
+# tracing (3.2 times Cycles' speed at equal error, against 2.1) and less against Cycles' answer
+# (0.59 against 0.63): the default stays the quicker bake. The 40 x 40 Cornell box
 # (20,348 triangles on 738 panels) still converges, in 7.2 s (docs/fine_mesh.md).
 LARGE_SCENE_TRIANGLES = 50_000
 LARGE_SCENE_MONTE_CARLO_RAYS = 64
