@@ -234,7 +234,7 @@ def _split_triangles(corners: np.ndarray, divisions: np.ndarray) -> dict[str, np
 def _receiver_nodes(scene: Scene, crease_angle: float,
                     corner_points: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Nodes of the corners of ``scene``'s triangles, evaluated at ``corner_points`` (T, 3, 3)
-    (default: the corners themselves) moved into their faces (``inset``)."""
+    (default: the corners themselves) moved into their faces (``inset``), on or in front of each."""
     corners = triangle_corners(scene.vertices, scene.triangles)
     areas, normals = areas_and_normals(corners)
     degenerate = areas <= DEGENERATE_AREA_RATIO * longest_edges(corners) ** 2
