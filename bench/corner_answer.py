@@ -7,15 +7,16 @@ their radiosity, so it is independent of the solvers and of the bake's knobs but
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from core import Scene
-from core.bake import BakeSettings, discretised
-from core.pathtrace import path_traced
-from core.visibility import Visibility
+from bench.pathtrace import path_traced
+from core import BakeSettings, Scene
+from core.mesh.discretize import discretised
+from core.rays.visibility import Visibility
 
 SELECTION_SEED = 7  # which corners are chosen
 PATH_SEED = 1
@@ -42,7 +43,7 @@ def path_traced_corners(scene: Scene, patch_size: float, count: int, paths: int)
     """B = E + rho G at ``count`` random corners of non-emitting triangles (drawn with
     SELECTION_SEED among those with a node), G path-traced with ``paths`` paths at each corner's
     node, on the patches of a default bake of ``patch_size``."""
-    mesh, _ = discretised(scene, BakeSettings(patch_size=patch_size))
+    mesh, _ = discretised(scene, patch_size, math.radians(BakeSettings().crease_angle), True)
     front = mesh.front_patch_count
     visibility = Visibility(mesh.patch_corners[:front], two_sided=mesh.back_of_front >= 0,
                             owners=mesh.patch_triangle[:front])

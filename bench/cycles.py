@@ -34,7 +34,7 @@ from cycles_metrics import LUMINANCE, TOUCH, Corners, nrmse, pct, rgb, seed_nois
 from cycles_worker import ATTRIBUTE, EMITTERS, REPO, SURFACES, VARIANTS, run_case
 
 sys.path.insert(0, str(REPO))
-from core.discretize import NODE_INSET  # noqa: E402
+from core.mesh.discretize import NODE_INSET  # noqa: E402
 
 # What a run writes, in docs/ (in build/cycles-quick/ with --quick, so trying the script leaves the
 # committed files alone), and the raw results, in build/ (read back by --from-results).
@@ -175,7 +175,7 @@ class Analysis:
                  f"{self.our_wall:.2f}",
                  ", ".join(f"{r['core_seconds']:.2f}" for r in self.ours),
                  f"{statistics.median(r['cpu'] / r['wall'] for r in self.ours):.2f}",
-                 f"{ours['threads_core']} (core.parallel)", stage_text or "n/a"]]
+                 f"{ours['threads_core']} (core.util.parallel)", stage_text or "n/a"]]
         for seed, result in zip(SEEDS, self.seeds, strict=True):
             rows.append([f"Cycles, {self.samples} samples, seed {seed}", f"{result['wall']:.2f}",
                          f"{result['wall']:.2f}",
@@ -364,7 +364,7 @@ def _variants(a: Analysis) -> list[str]:
         f"{a.ours[0]['settings']['preset']} run; Cycles: {a.twin['samples']} samples, seed {SEEDS[0]}, so the same "
         "random numbers): NRMSE against the reference, the largest corner difference to the twin, and the surfaces' "
         "luminance ratios to the reference. The node inset is set in the worker process "
-        f"(`core.discretize.NODE_INSET`, {NODE_INSET:g} of the extent in the code).",
+        f"(`core.mesh.discretize.NODE_INSET`, {NODE_INSET:g} of the extent in the code).",
         "",
         table(["bake", "changed", "NRMSE vs the reference", "largest difference to the twin",
                *(f"`{name}`" for name in SURFACES)], a.variant_rows()),

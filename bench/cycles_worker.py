@@ -10,7 +10,7 @@ its emitting meshes (bench/sponza.py): every other mesh is then compared, in the
 
 - ``ours``: ``bpy.ops.radiosity.bake()``; ``settings`` sets ``scene.radiosity`` properties first
   (e.g. ``{"preset": "CUSTOM", "patch_size": 0.03, "rays": "256"}``), ``node_inset`` moves
-  core.discretize.NODE_INSET, ``render`` is a path for a picture of the baked colours.
+  core.mesh.discretize.NODE_INSET, ``render`` is a path for a picture of the baked colours.
 - ``cycles``: a COMBINED vertex bake with ``samples`` and ``seed`` (../shared/CYCLES.md's recipe),
   optionally on a scene changed by one of VARIANTS.
 - ``check``: the same Cycles bake per object and all at once (``samples``, ``seed``).
@@ -80,9 +80,9 @@ def _case_ours(bpy, package, case: dict) -> dict:
     for name, value in case.get("settings", {}).items():
         setattr(scene.radiosity, name, value)
     if "node_inset" in case:  # a sensitivity check: where the core evaluates a vertex colour
-        discretize = package.core.discretize
+        discretize = package.core.mesh.discretize
         if not hasattr(discretize, "NODE_INSET"):
-            raise RuntimeError("core.discretize.NODE_INSET is gone: update the node-inset case of bench/cycles.py")
+            raise RuntimeError("core.mesh.discretize.NODE_INSET is gone: update the node-inset case of bench/cycles.py")
         discretize.NODE_INSET = case["node_inset"]
     settings = {name: str(getattr(scene.radiosity, name)) for name in ("preset", "method", "solver", "two_sided")}
     wall, cpu = time.perf_counter(), _cpu_seconds()
@@ -101,7 +101,7 @@ def _case_ours(bpy, package, case: dict) -> dict:
         _picture_settings(scene)
         package.radiosity_addon.preview.render_colours(scene, ATTRIBUTE, case["render"])
     return {"wall": wall, "cpu": cpu, "core_seconds": core_seconds, "stages": stages, "counts": counts,
-            "summary": summary, "settings": settings, "threads_core": package.core.parallel.THREADS,
+            "summary": summary, "settings": settings, "threads_core": package.core.util.parallel.THREADS,
             "objects": _read_corners(bpy, ATTRIBUTE, with_geometry=bool(case.get("render")),
                                      emitters=case.get("emitters"))}
 

@@ -18,10 +18,10 @@
   closed form, so only the black room serves as analytic truth.
 
 F(x -> polygon) is the exact unoccluded point-to-polygon form factor (Lambert's contour
-integral), summed over the polygon's triangles by ``core.analytic.point_to_triangle``; the core's
+integral), summed over the polygon's triangles by ``core.transport.analytic.point_to_triangle``; the core's
 tests check it against Howell's catalogue (B-3, B-12) to 1e-12. The truth is evaluated at the
 triangle corners themselves; the core evaluates a corner 1e-3 of the way towards its face's
-centre (core.discretize.NODE_INSET), which moves these smooth fields by about 1e-4 relative.
+centre (core.mesh.discretize.NODE_INSET), which moves these smooth fields by about 1e-4 relative.
 
 Each scene is turned by one rigid motion (TURN), as the core's closed-form tests do: seen from an
 axis-aligned hemicube, an axis-aligned square whose edges project onto pixel edges is integrated
@@ -35,7 +35,7 @@ from typing import NamedTuple
 import numpy as np
 
 from core import Scene
-from core.analytic import point_to_triangle
+from core.transport.analytic import point_to_triangle
 
 FURNACE_REFLECTANCE = 0.8
 FURNACE_EMISSION = 1.0

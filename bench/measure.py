@@ -16,9 +16,10 @@ import numpy as np
 
 import machine
 import scenes
-from core import Scene, bake, parallel
-from core.discretize import Discretization, discretize
-from core.visibility import RAY_EPSILON, Visibility
+from core import Scene, bake
+from core.util import parallel
+from core.mesh.discretize import Discretization, discretize
+from core.rays.visibility import RAY_EPSILON, Visibility
 
 RAY_STAGES = ("form_factors", "solve", "gather")  # the stages of bake() that cast rays
 RAW_RAYS = 1 << 21  # rays in the raw batch, split across parallel.THREADS threads

@@ -37,7 +37,7 @@ from sponza import BAKES, BLEND, RESULTS, SAMPLES, SEEDS, WORK, label
 
 sys.path.insert(0, str(REPO))
 from core import Scene  # noqa: E402
-from core.bake import AUTO_PATCH_DIVISIONS  # noqa: E402
+from core.settings import AUTO_PATCH_DIVISIONS  # noqa: E402
 from corner_answer import path_traced_corners  # noqa: E402  (it reads the core)
 
 COMMAND = ".venv/bin/python bench/path_traced.py"

@@ -17,8 +17,8 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from core import bake  # noqa: E402
-from core.objfile import read_obj, subdivide  # noqa: E402
-from core.plyfile import linear_to_srgb_bytes  # noqa: E402
+from core.scene.objfile import read_obj, subdivide  # noqa: E402
+from core.scene.plyfile import linear_to_srgb_bytes  # noqa: E402
 
 CAMERA = np.array([278.0, 273.0, -800.0])  # Cornell's data: looking along +z, y up
 FOCAL = 35.0 / 12.5  # focal length over half the 25 mm film

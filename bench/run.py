@@ -111,10 +111,10 @@ def markdown(measurements: list[Measurement], header: dict[str, str], minutes: f
         "- Bake Mrays/s: `stats[\"rays_cast\"]` over the seconds of the stages that cast rays (`form_factors`, "
         "`solve`, `gather`); those seconds include everything else the stages do (analytic form factors, the "
         "solver).",
-        f"- Raw Embree Mrays/s: `core.visibility.Visibility` built on the bake's own front patches, tracing one "
-        f"batch of {RAW_RAYS:,} rays split across the bake's thread pool (`core.parallel`); the median of "
+        f"- Raw Embree Mrays/s: `core.rays.visibility.Visibility` built on the bake's own front patches, tracing one "
+        f"batch of {RAW_RAYS:,} rays split across the bake's thread pool (`core.util.parallel`); the median of "
         f"{RAW_REPEATS} traces right after the timed bake and again after the rerun, averaged. Ray-cast bakes: "
-        "OCCLUDED segments through `Visibility.occluded_unit`, built as `core.raycast` builds them (groups of "
+        "OCCLUDED segments through `Visibility.occluded_unit`, built as `core.transport.raycast` builds them (groups of "
         f"{SHOOTERS} source patches drawn by area times random receiver patches, random points on both, facing "
         "pairs only, offset by RAY_EPSILON). Hemicube bakes: INTERSECT rays through `Visibility.nearest` from "
         "random points on patches into their hemisphere.",

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from core import Scene
-from core.geometry import areas_and_normals
-from core.objfile import read_obj, subdivide
+from core.util.geometry import areas_and_normals
+from core.scene.objfile import read_obj, subdivide
 
 REPO = Path(__file__).resolve().parent.parent
 SCENES = REPO / ".." / "shared" / "scenes"

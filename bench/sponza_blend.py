@@ -25,7 +25,7 @@ sys.path[:0] = [str(REPO), str(REPO / "sample_blends")]
 
 import numpy as np  # noqa: E402
 
-from core.objfile import read_obj  # noqa: E402
+from core.scene.objfile import read_obj  # noqa: E402
 
 SKY = "sky"  # the emitting quad's object
 

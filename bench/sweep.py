@@ -1,5 +1,5 @@
 """Speed against accuracy of bake(): each knob swept one at a time around the defaults, for each
-method with each solver, plus the presets of core.presets, on scenes with an exact answer
+method with each solver, plus the presets of core.settings, on scenes with an exact answer
 (bench/exact.py) and on the benchmark scenes (bench/scenes.py) against a converged reference, or
 where no bake of ours converges (Sponza) against path tracing at random corners (bench/corner_answer.py);
 writes docs/tradeoffs.md and docs/tradeoffs_*.png and prints each scene's Pareto front.
@@ -52,8 +52,8 @@ from records import COMBOS, Answer, Case, Record, Run, pareto_front  # noqa: E40
 
 from core import BakeSettings, Scene, bake  # noqa: E402
 from core.bake import AUTO_PATCH_DIVISIONS  # noqa: E402
-from core.discretize import discretize  # noqa: E402
-from core.presets import (  # noqa: E402
+from core.mesh.discretize import discretize  # noqa: E402
+from core.settings import (  # noqa: E402
     LARGE_SCENE_MONTE_CARLO_RAYS, LARGE_SCENE_TRIANGLES, PRESETS, preset_knobs,
 )
 

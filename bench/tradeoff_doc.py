@@ -11,7 +11,7 @@ import scenes
 from cycles_metrics import pct
 from records import Answer, Record, Run, pareto_front
 
-from core.bake import AUTO_PATCH_DIVISIONS
+from core.settings import AUTO_PATCH_DIVISIONS
 
 COMMAND = ".venv/bin/python bench/sweep.py"
 BASELINE = ("raycast", "progressive")  # times are also given as ratios to this method's default bake
@@ -168,7 +168,7 @@ def markdown(run: Run, notes: dict[str, str], figures: list[Path]) -> str:
         "",
         "- One knob at a time moves away from bake()'s defaults (patch size = scene extent / "
         f"{AUTO_PATCH_DIVISIONS}, flat regions merged, hemicube resolution 64, 16 rays per form factor, tolerance "
-        "1e-3), for each method with each solver; the presets of `core.presets` are baked with each method and solver too (the hemicube ignores their rays: the scenes "
+        "1e-3), for each method with each solver; the presets of `core.settings` are baked with each method and solver too (the hemicube ignores their rays: the scenes "
         "have no lights or sky). The hemicube resolution is swept for the hemicube only, the rays for ray casting "
         "only. Explicit solvers (Jacobi, Gauss-Seidel: a P x P matrix) are left out where P is too large.",
         "- Each bake runs in a child process forked after the scenes are loaded, so it starts without the thread "

@@ -1,11 +1,19 @@
 """radiosity core: diffuse global illumination by the radiosity method, in NumPy; no bpy.
 
-    from core import Scene, bake, form_factor_matrix, BakeCancelled
+    from core import Scene, PointLight, bake, BakeCancelled
+    result = bake(scene, progress=print)  # result.corner_colors: (T, 3, 3) linear RGB
+
+The pipeline, one package per stage: ``scene`` (the model) -> ``mesh`` (panels, patches,
+receiver nodes) -> ``transport`` (form factors, direct light) -> ``solve`` -> ``reconstruct``
+(per-corner colours, the error estimate); ``rays`` traces every ray, ``util`` holds the rest.
 """
 
-from .bake import BakeResult, BakeSettings, bake
-from .formfactors import form_factor_matrix
-from .progress import BakeCancelled
-from .scene import Scene
+from .bake import BakeResult, bake
+from .job import BakeJob
+from .scene import AreaLight, PointLight, Scene, SpotLight, SunLight, area_light, read_obj
+from .settings import KNOBS, PRESETS, BakeSettings
+from .transport.formfactors import form_factor_matrix
+from .util.progress import BakeCancelled
 
-__all__ = ["Scene", "bake", "form_factor_matrix", "BakeCancelled", "BakeResult", "BakeSettings"]
+__all__ = ["Scene", "PointLight", "SpotLight", "SunLight", "AreaLight", "area_light", "read_obj", "bake",
+           "BakeResult", "BakeSettings", "BakeCancelled", "BakeJob", "KNOBS", "PRESETS", "form_factor_matrix"]

@@ -14,8 +14,8 @@ import threading
 import time
 
 from .bake import BakeResult, bake
-from .progress import BakeCancelled
 from .scene import Scene
+from .util.progress import BakeCancelled
 
 
 class BakeJob:

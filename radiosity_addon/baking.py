@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 from ..core import bake
 from ..core.job import BakeJob
-from ..core.visibility import default_backend
+from ..core.rays import default_backend
 from .extract import Extraction, extract
 from .write import plan, write
 

@@ -15,7 +15,7 @@ import traceback
 
 import bpy
 
-from ..core.presets import PRESETS
+from ..core.settings import PRESETS
 from .baking import Outcome, finish, prepare, run_straight
 from .preview import render_colours
 

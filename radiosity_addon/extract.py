@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core import Scene
-from ..core.lights import PointLight, SpotLight, SunLight, area_light
+from ..core.scene.lights import PointLight, SpotLight, SunLight, area_light
 from .materials import Surface, default_surface, material_surface
 
 

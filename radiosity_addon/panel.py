@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import bpy
 
-from ..core.presets import PRESETS
+from ..core.settings import PRESETS
 
 
 def draw_settings(layout, settings) -> None:

@@ -7,7 +7,7 @@ import math
 
 import bpy
 
-from ..core.presets import (
+from ..core.settings import (
     LARGE_SCENE_MONTE_CARLO_RAYS, LARGE_SCENE_TRIANGLES, PRESETS, auto_monte_carlo_rays, preset_knobs,
 )
 

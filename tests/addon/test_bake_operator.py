@@ -323,7 +323,7 @@ def test_crease_angle_mode_ignores_the_shading():
 
 
 def test_monte_carlo_auto_carries_a_large_scene_after_the_emitters_shoot():
-    """Auto turns Monte Carlo on from core.presets.LARGE_SCENE_TRIANGLES on: a floor of 160 x 160
+    """Auto turns Monte Carlo on from core.settings.LARGE_SCENE_TRIANGLES on: a floor of 160 x 160
     cells (51,200 triangles, merged into a few panels) under a glowing panel bakes with 64 rays,
     and the report says so."""
     grid_object("Floor", cells=160, material=diffuse_material("Floor", (0.6, 0.5, 0.4)))

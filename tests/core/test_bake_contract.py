@@ -47,7 +47,7 @@ def test_unknown_method_solver_or_knob_is_refused():
         bake(scene, solver="conjugate")
     with pytest.raises(TypeError, match="hemicube_size"):
         bake(scene, hemicube_size=32)
-    with pytest.raises(ValueError, match="rays per form factor must be a perfect square"):
+    with pytest.raises(ValueError, match="rays_per_form_factor must be a perfect square"):
         bake(scene, rays_per_form_factor=10)
     with pytest.raises(ValueError, match="patch_size must be a positive length"):
         bake(scene, patch_size=-1.0)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from core.cli import main
-from core.plyfile import linear_to_srgb_bytes
+from core.scene.plyfile import linear_to_srgb_bytes
 
 EMISSION, REFLECTANCE = 0.2, 0.5
 FURNACE_RADIOSITY = EMISSION / (1 - REFLECTANCE)  # B = E + rho B where every face of a closed box emits
@@ -44,7 +44,7 @@ def _mean_radiosity(output: str) -> np.ndarray:
 
 
 def _ply_colours(path) -> np.ndarray:
-    """(n, 3) the sRGB bytes of every vertex of a PLY that core.plyfile wrote."""
+    """(n, 3) the sRGB bytes of every vertex of a PLY that core.scene.plyfile wrote."""
     data = path.read_bytes()
     header, body = data.split(b"end_header\n", 1)
     count = int(re.search(rb"element vertex (\d+)", header).group(1))
@@ -78,11 +78,13 @@ def test_monte_carlo_and_max_shots_reach_the_bake(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("arguments, message", [
-    (["--monte-carlo-rays", "many"], "expected a number of rays or auto, got 'many'"),
-    (["--monte-carlo-rays", "15"], "Monte Carlo rays must be a perfect square"),
+    (["--monte-carlo-rays", "many"], "expected int or auto, got 'many'"),
+    (["--monte-carlo-rays", "15"], "monte_carlo_rays must be 0 or a perfect square"),
     (["--max-shots", "-1"], "max_shots must be a non-negative integer or None"),
+    (["--max-shots", "all"], "expected int or none, got 'all'"),
+    (["--patch-size", "0"], "patch_size must be a positive length or None"),
     (["--subdivide", "0"], "--subdivide must be at least 1"),
-    (["--rays", "10"], "rays per form factor must be a perfect square"),
+    (["--rays-per-form-factor", "10"], "rays_per_form_factor must be a perfect square"),
     (["--method", "photon"], "invalid choice: 'photon'"),
 ])
 def test_bad_arguments_exit_2_with_the_reason(furnace_obj, capsys, arguments, message):

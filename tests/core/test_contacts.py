@@ -5,9 +5,10 @@ which side of a known line each corner lies on)."""
 import numpy as np
 import pytest
 
-from core.contacts import coplanar_overlaps, pieces
-from core.discretize import discretize
-from core.geometry import areas_and_normals
+from core.mesh.contacts import pieces
+from core.util.overlaps import coplanar_overlaps
+from core.mesh.discretize import discretize
+from core.util.geometry import areas_and_normals
 from tests.core.scenes import box, merge, quad, uniform
 
 FLOOR = quad([0, 0, 0], [1, 0, 0], [0, 1, 0])  # z = 0, faces +z, two triangles

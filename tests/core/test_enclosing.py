@@ -7,18 +7,17 @@ rays' starts are there."""
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 import pytest
 
-from core import Scene, bake, geometry
-from core.discretize import discretize
-from core.geometry import areas_and_normals, enclosing, triangle_corners
-from core.visibility import RAY_EPSILON, Visibility
+from core import Scene, bake
+from core.util import geometry
+import core.mesh.discretize as discretize_module
+from core.mesh.discretize import discretize
+from core.util.geometry import areas_and_normals, enclosing, triangle_corners
+from core.rays.visibility import RAY_EPSILON, Visibility
 from tests.core.scenes import box, lit_room, merge, quad
 
-core_bake = sys.modules["core.bake"]  # the module, which ``core.bake`` the function hides
 
 
 def room_with_block() -> tuple[np.ndarray, np.ndarray, int]:
@@ -105,7 +104,8 @@ def test_the_back_faces_of_walls_are_not_patches_and_change_nothing(monkeypatch)
     every = discretize(scene, 0.2)  # as asked by default: every two-sided triangle has its back
     assert every.patch_count == 2 * every.front_patch_count == 2 * mesh.front_patch_count
     fewer = bake(scene, patch_size=0.2, tolerance=1e-9).corner_colors
-    monkeypatch.setattr(core_bake, "discretize", lambda *args, **knobs: discretize(*args, **knobs | {"hidden_backs": True}))
+    monkeypatch.setattr(discretize_module, "discretize",
+                        lambda *args, **knobs: discretize(*args, **knobs | {"hidden_backs": True}))
     assert bake(scene, patch_size=0.2).stats["patches"] == every.patch_count
     all_backs = bake(scene, patch_size=0.2, tolerance=1e-9).corner_colors
     np.testing.assert_allclose(fewer, all_backs, rtol=0, atol=1e-9 * np.abs(all_backs).max())

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from core import Scene, bake
-from core.analytic import point_to_triangle
-from core.discretize import discretize
+from core.transport.analytic import point_to_triangle
+from core.mesh.discretize import discretize
 from tests.core.scenes import box, merge, quad
 
 PAIRS = [("raycast", "progressive"), ("hemicube", "progressive"), ("hemicube", "jacobi"), ("raycast", "gauss_seidel")]

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from core import Scene, bake, form_factor_matrix
-from core.analytic import point_to_triangle
-from core.lights import AreaLight, PointLight, SpotLight, SunLight
+from core.transport.analytic import point_to_triangle
+from core.scene.lights import AreaLight, PointLight, SpotLight, SunLight
 from tests.core.scenes import box, lit_room, merge, quad, tetrahedron, uniform
 from tests.core.test_form_factor_closed_forms import ROTATION, SHIFT, c11
 
@@ -746,7 +746,7 @@ def test_a_light_without_an_answer_is_refused(make, message):
     (dict(patch_size=np.nan), "patch_size must be a positive length or None"),
     (dict(patch_size=0.0), "patch_size must be a positive length or None"),
     (dict(max_iterations=-1), "max_iterations must be a non-negative integer"),
-    (dict(rays_per_form_factor=0), "rays per form factor must be a perfect square"),
+    (dict(rays_per_form_factor=0), "rays_per_form_factor must be a perfect square"),
 ])
 def test_knobs_without_an_answer_are_refused(knobs, message):
     with pytest.raises(ValueError, match=message):

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from core import form_factor_matrix
-from core.analytic import point_to_triangle
+from core.transport.analytic import point_to_triangle
 from tests.core.scenes import box, merge, quad
 
 METHODS = ("hemicube", "raycast")

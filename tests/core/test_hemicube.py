@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from core import hemicube
+from core.transport import hemicube
 
 
 @pytest.mark.parametrize("resolution", [2, 8, 64, 250])

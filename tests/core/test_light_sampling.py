@@ -1,4 +1,4 @@
-"""A small light's penumbra, exact: lights are sampled from at least raycast.MIN_LIGHT_PIECES
+"""A small light's penumbra, exact: lights are sampled from at least discretize.MIN_LIGHT_PIECES
 pieces, and the split stays bounded where lights are large or many.
 
 A square light of half-width L faces down at height H over a black-backed floor of reflectance
@@ -18,11 +18,13 @@ import numpy as np
 import pytest
 
 from core import Scene, bake
-from core.discretize import MAX_EMITTER_SHARE, discretize
-from core.lights import MAX_ADDED_LIGHT_PIECES, AreaLight, DirectLighting, area_light
-from core.analytic import point_to_triangle
-from core.raycast import MIN_LIGHT_PIECES, RayCaster
-from core.visibility import Visibility
+from core.mesh.discretize import MAX_EMITTER_SHARE, discretize
+from core.mesh.discretize import MIN_LIGHT_PIECES
+from core.scene.lights import AreaLight, area_light
+from core.transport.direct import MAX_ADDED_LIGHT_PIECES, DirectLighting
+from core.transport.analytic import point_to_triangle
+from core.transport.raycast import RayCaster
+from core.rays.visibility import Visibility
 from tests.core.scenes import grid, merge, quad
 
 HEIGHT, LIGHT, BLOCKER, FLOOR = 2.0, 0.25, 0.1, 2.0  # half-widths

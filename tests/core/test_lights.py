@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from core import Scene, bake
-from core.analytic import point_to_triangle
-from core.lights import AreaLight, PointLight, SpotLight, SunLight, area_light
+from core.transport.analytic import point_to_triangle
+from core.scene.lights import AreaLight, PointLight, SpotLight, SunLight, area_light
 from tests.core.scenes import box, merge, quad
 from tests.core.test_form_factor_closed_forms import b3_anywhere, b12
 

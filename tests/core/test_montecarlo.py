@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from core import Scene, bake
-from core.analytic import point_to_triangle
-from core.discretize import discretize
-from core.montecarlo import MIN_HITS, cosine_directions, gather, pooled, trace, uniform_points
-from core.visibility import Visibility
+from core.transport.analytic import point_to_triangle
+from core.mesh.discretize import discretize
+from core.solve.montecarlo import MIN_HITS, cosine_directions, gather, pooled, trace, uniform_points
+from core.rays.visibility import Visibility
 from tests.core.scenes import box, lit_room, merge, quad, uniform
 
 

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from core import Scene, bake
-from core.analytic import point_to_triangle
-from core.geometry import barycentric_grid
-from core.nearfield import _where_seen
+from core.transport.analytic import point_to_triangle
+from core.util.geometry import barycentric_grid
+from core.reconstruct.nearfield import _where_seen
 from tests.core.scenes import box, merge, quad
 
 WALL = np.array([[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])  # x = 0, faces +x

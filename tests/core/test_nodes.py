@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from core import Scene, bake
-from core.discretize import discretize
+from core.mesh.discretize import discretize
 from tests.core.scenes import box, merge, quad, uniform
 
 

@@ -1,4 +1,4 @@
-"""The two ray backends of ``core.visibility``: Embree (embreex) and the NumPy tracer answer the
+"""The two ray backends of ``core.rays.visibility``: Embree (embreex) and the NumPy tracer answer the
 same queries alike, on random and adversarial rays and through the form-factor code, and core
 works (and bakes) where embreex cannot be imported.
 
@@ -19,11 +19,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from core import Scene, bake, hemicube
-from core.discretize import discretize
-from core.numpy_tracer import NumpyTracer
-from core.raycast import RayCaster
-from core.visibility import BACKENDS, RAY_EPSILON, Visibility, default_backend
+from core import Scene, bake
+from core.transport import hemicube
+from core.mesh.discretize import discretize
+from core.rays.numpy_tracer import NumpyTracer
+from core.transport.raycast import RayCaster
+from core.rays.visibility import BACKENDS, RAY_EPSILON, Visibility, default_backend
 from tests.core.scenes import lit_room, merge, quad
 from tests.core.test_occlusion import BLOCKER, HEIGHT, PLATE, centred_square_factor
 from tests.core.test_occlusion import scene as occlusion_scene
@@ -316,7 +317,7 @@ def test_core_imports_and_bakes_without_embreex():
         "import json, sys\n"
         "sys.modules['embreex'] = None\n"
         "import core\n"
-        "from core.visibility import default_backend\n"
+        "from core.rays.visibility import default_backend\n"
         "from tests.core.scenes import lit_room\n"
         "result = core.bake(lit_room())\n"
         "print(json.dumps({'backend': default_backend(), 'colors': result.corner_colors.tolist()}))\n"

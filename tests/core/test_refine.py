@@ -6,11 +6,13 @@ import importlib
 import numpy as np
 import pytest
 
-from core import Scene, bake, receivers, refine
-from core.discretize import discretize
-from core.formfactors import FormFactorEngine
-from core.geometry import barycentric_grid, tangent_frames
-from core.receivers import receiving_points
+from core import Scene, bake
+from core.transport import receivers
+from core.mesh import refine
+from core.mesh.discretize import discretize
+from core.transport.formfactors import FormFactorEngine
+from core.util.geometry import barycentric_grid, tangent_frames
+from core.transport.receivers import receiving_points
 from tests.core.scenes import box, lit_room, merge, quad
 
 
@@ -82,7 +84,7 @@ def test_a_resumed_solve_matches_a_fresh_solve_of_the_refined_patches(solver, mo
     monkeypatch.setattr(refine, "split", remember)
     bake(scene, method, solver, refinement_levels=1, tolerance=1e-7, probe_rays=False)
     refined_mesh = levels["refined"][0]
-    monkeypatch.setattr(bake_module, "discretize", lambda *_args, **_kwargs: refined_mesh)
+    monkeypatch.setattr(bake_module, "discretised", lambda *_args, **_kwargs: (refined_mesh, None))
     fresh = bake(scene, method, solver, refinement_levels=0, tolerance=1e-7, probe_rays=False)
     np.testing.assert_allclose(resumed.corner_colors, fresh.corner_colors, rtol=5e-3)
 

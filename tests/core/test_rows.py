@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from core import rows
+from core.util import rows
 
 
 def same_partition(labels: np.ndarray, expected: np.ndarray) -> bool:

@@ -1,4 +1,4 @@
-"""Flat regions merged into panels (core.simplify, bake(merge_flat=True)): the panels tile each
+"""Flat regions merged into panels (core.mesh.panels, bake(merge_flat=True)): the panels tile each
 region exactly, every input corner is found on them, and bakes keep their exact answers."""
 
 from __future__ import annotations
@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from core import Scene, bake
-from core.analytic import point_to_triangle
-from core.discretize import discretize
-from core.geometry import areas_and_normals, barycentric_grid
-from core.simplify import panels
+from core.transport.analytic import point_to_triangle
+from core.mesh.discretize import discretize
+from core.util.geometry import areas_and_normals, barycentric_grid
+from core.mesh.panels import panels
 from tests.core.scenes import box, grid, merge, quad, uniform
 
 # The unit cube's faces as (corner, u, v), facing inwards (u x v), in box()'s order.

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from core import bake, form_factor_matrix
-from core import solvers
+from core.solve import iterative, progressive
 from tests.core.scenes import lit_room
 
 
@@ -24,7 +24,7 @@ def exact(matrix, reflectance, emission):
     ], axis=1)
 
 
-@pytest.mark.parametrize("solve", [solvers.jacobi, solvers.gauss_seidel])
+@pytest.mark.parametrize("solve", [iterative.jacobi, iterative.gauss_seidel])
 def test_iterative_solvers_agree_with_a_direct_solve(system, solve):
     """Their stopping rule bounds the error by tolerance * max |B| (row sums of rho F < 1)."""
     matrix, reflectance, emission = system
@@ -35,8 +35,8 @@ def test_iterative_solvers_agree_with_a_direct_solve(system, solve):
 
 
 def test_gauss_seidel_needs_fewer_sweeps_than_jacobi(system):
-    _, jacobi_stats = solvers.jacobi(*system, tolerance=1e-8)
-    _, seidel_stats = solvers.gauss_seidel(*system, tolerance=1e-8)
+    _, jacobi_stats = iterative.jacobi(*system, tolerance=1e-8)
+    _, seidel_stats = iterative.gauss_seidel(*system, tolerance=1e-8)
     assert seidel_stats["iterations"] < jacobi_stats["iterations"]
 
 
@@ -47,7 +47,7 @@ def test_progressive_refinement_agrees_with_a_direct_solve(system, ambient):
     matrix, reflectance, emission = system
     truth = exact(*system)
     areas = np.ones(len(matrix))  # the solver only uses areas to rank shooters and weigh energy
-    radiosity, _, stats = solvers.progressive(lambda sources, _tick: (matrix[:, sources], np.ones(len(sources))), areas, reflectance, emission,
+    radiosity, _, stats = progressive.progressive(lambda sources, _tick: (matrix[:, sources], np.ones(len(sources))), areas, reflectance, emission,
                                               tolerance=1e-9, ambient=ambient)
     assert stats["unshot_fraction"] <= 1e-9
     np.testing.assert_allclose(radiosity, truth, rtol=1e-7, atol=1e-7 * np.abs(truth).max())
@@ -60,7 +60,7 @@ def test_progressive_refinement_shoots_passive_receivers_too(system):
     probes = matrix[:3] * 0.5  # any rows of form factors will do
     probe_reflectance, probe_emission = np.full((3, 3), 0.4), np.full((3, 3), 0.1)
     columns = np.concatenate([matrix, probes])
-    _, passive, _ = solvers.progressive(lambda sources, _tick: (columns[:, sources], np.ones(len(sources))), np.ones(len(matrix)), reflectance,
+    _, passive, _ = progressive.progressive(lambda sources, _tick: (columns[:, sources], np.ones(len(sources))), np.ones(len(matrix)), reflectance,
                                         emission, probe_reflectance, probe_emission, tolerance=1e-10, ambient=False)
     np.testing.assert_allclose(passive, probe_emission + probe_reflectance * (probes @ truth), rtol=1e-7)
 
@@ -68,7 +68,7 @@ def test_progressive_refinement_shoots_passive_receivers_too(system):
 def test_a_system_without_a_solution_is_refused():
     matrix = np.array([[0.0, 1.0], [1.0, 0.0]]) * 1.2  # row sums over 1: light would grow forever
     with pytest.raises(ValueError, match="does not converge"):
-        solvers.jacobi(matrix, np.full((2, 1), 0.9), np.ones((2, 1)))
+        iterative.jacobi(matrix, np.full((2, 1), 0.9), np.ones((2, 1)))
 
 
 @pytest.mark.parametrize("method", ["raycast", "hemicube"])

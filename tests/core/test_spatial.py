@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from core import spatial
+from core.util import spatial
 
 
 def random_boxes(rng: np.random.Generator, count: int) -> tuple[np.ndarray, np.ndarray]:

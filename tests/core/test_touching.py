@@ -13,7 +13,7 @@ off the floor:
     G(p) = RHO int_{x > A} cos_p cos_x / (pi r^2) G_floor(x) dA,
     G_floor(x) = P cos / (4 pi^2 d^2) (0 in the shadow),
 
-at the node's point p (where core.discretize evaluates it). The integral is taken in polar
+at the node's point p (where core.mesh.discretize evaluates it). The integral is taken in polar
 coordinates about p's foot on the floor, with radii spaced logarithmically from far below p's
 height (micrometres) to the floor's edge, and the shadow tested exactly against the block.
 """
@@ -21,9 +21,10 @@ height (micrometres) to the floor's edge, and the shadow tested exactly against 
 import numpy as np
 import pytest
 
-from core import Scene, bake, touching
-from core.discretize import discretize
-from core.lights import PointLight
+from core import Scene, bake
+from core.reconstruct import touching
+from core.mesh.discretize import discretize
+from core.scene.lights import PointLight
 from tests.core.scenes import merge, quad
 
 A, HALF_FLOOR, RHO = 0.5, 3.0, 0.8

@@ -16,8 +16,8 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..util.geometry import area_vectors
 from .discretize import Discretization
-from .geometry import area_vectors
 
 # Patch corners closer than this fraction of the largest patch edge are one corner.
 WELD_FRACTION = 1e-6

@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import parallel
-from .discretize import Discretization
-from .geometry import barycentric_grid, tangent_frames
-from .visibility import Visibility
+from ..mesh.discretize import Discretization
+from ..rays.visibility import Visibility
+from ..util import parallel
+from ..util.geometry import barycentric_grid, tangent_frames
 
 SAMPLE_DIVISIONS = 4  # the patch is tested at the centroids of its 4 x 4 strata
 RING = 6  # probe directions around the normal, at PROBE_ANGLE from it

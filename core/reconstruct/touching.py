@@ -40,8 +40,8 @@ from typing import Callable
 
 import numpy as np
 
-from .discretize import Discretization
-from .geometry import areas_and_normals, barycentric, longest_edges, tangent_frames
+from ..mesh.discretize import Discretization
+from ..util.geometry import areas_and_normals, barycentric, longest_edges, tangent_frames
 from .nearfield import NearField
 
 TOUCH = 0.05  # a patch corner this share of the patch's longest edge from a node touches it

@@ -1,5 +1,5 @@
-"""Lights that are not surfaces (point, spot, sun, area) and light from the sky, in Blender's
-units and with Cycles' conventions, measured with Blender 5.0.1 (see shared/CYCLES.md).
+"""Direct light: what the lights (``scene.lights``) and the sky give at points of the surfaces,
+in Blender's units and with Cycles' conventions, measured with Blender 5.0.1 (../shared/CYCLES.md).
 
 Each light adds to the irradiance of a surface point; this module returns it divided by pi,
 G = H / pi, so that a diffuse surface of reflectance rho shows rho * G (and the "lighting only"
@@ -22,15 +22,16 @@ a uniformly bright sphere is that of a point of the same power), and a sun's ang
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Callable, Iterable
+from typing import Callable
 
 import numpy as np
 
-from . import parallel
-from .geometry import areas_and_normals, subdivide, tangent_frames
-from .raycast import RayCaster, light_divisions, stratified_samples
-from .visibility import RAY_EPSILON, Visibility
+from ..mesh.discretize import light_divisions
+from ..rays.visibility import RAY_EPSILON, Visibility
+from ..scene.lights import AreaLight, PointLight, SpotLight, SunLight
+from ..util import parallel
+from ..util.geometry import areas_and_normals, subdivide, tangent_frames
+from .raycast import RayCaster, stratified_samples
 
 # Evaluation points per block of work (each with up to a few thousand rays).
 POINTS_PER_BLOCK = 1024
@@ -38,161 +39,9 @@ POINTS_PER_BLOCK = 1024
 # small share s of the hemisphere, and n stratified directions see it to about sqrt(s / n):
 # 16 x 16 = 256 directions keep the blotches of a 5 % window under 1.5 % of its light.
 SKY_RAYS_PER_RAY = 16
-# The pieces that splitting the area lights (raycast.light_divisions) may add, all lights together:
+# The pieces that splitting the area lights (``discretize.light_divisions``) may add, all lights together:
 # each piece costs its rays at every point.
 MAX_ADDED_LIGHT_PIECES = 256
-
-
-def _vector(name: str, value, nonnegative: bool = False) -> np.ndarray:
-    array = np.array(value, dtype=np.float64).reshape(-1)
-    if array.shape != (3,) or not np.isfinite(array).all():
-        raise ValueError(f"{name} must be 3 finite numbers, got {value!r}")
-    if nonnegative and (array < 0).any():
-        raise ValueError(f"{name} must not be negative, got {array.tolist()}")
-    array.setflags(write=False)
-    return array
-
-
-def _direction(name: str, value) -> np.ndarray:
-    array = np.array(_vector(name, value))
-    length = np.linalg.norm(array)
-    if length == 0:
-        raise ValueError(f"{name} must not be the zero vector")
-    array /= length
-    array.setflags(write=False)
-    return array
-
-
-@dataclass(frozen=True, eq=False)
-class PointLight:
-    """position (3,) world space; power (3,) W per channel (Blender: power x colour)."""
-
-    position: np.ndarray
-    power: np.ndarray
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "position", _vector("position", self.position))
-        object.__setattr__(self, "power", _vector("power", self.power, nonnegative=True))
-
-
-@dataclass(frozen=True, eq=False)
-class SpotLight:
-    """A point light shining into a cone: direction (3,) its axis; spot_size the cone's full
-    angle in radians, (0, pi]; spot_blend in [0, 1] the soft share of the edge."""
-
-    position: np.ndarray
-    direction: np.ndarray
-    power: np.ndarray
-    spot_size: float
-    spot_blend: float = 0.15
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "position", _vector("position", self.position))
-        object.__setattr__(self, "direction", _direction("direction", self.direction))
-        object.__setattr__(self, "power", _vector("power", self.power, nonnegative=True))
-        if not 0 < self.spot_size <= math.pi:
-            raise ValueError(f"spot_size must be in (0, pi] radians, got {self.spot_size}")
-        if not 0 <= self.spot_blend <= 1:
-            raise ValueError(f"spot_blend must be in [0, 1], got {self.spot_blend}")
-
-    def cone_mask(self, towards_points: np.ndarray) -> np.ndarray:
-        """(n,) Cycles' spot attenuation for unit vectors (n, 3) from the light to the points."""
-        cos_half = math.cos(self.spot_size / 2)
-        cosine = towards_points @ self.direction
-        smooth = (1 - cos_half) * self.spot_blend
-        if smooth <= 0:
-            return (cosine > cos_half).astype(np.float64)
-        t = np.clip((cosine - cos_half) / smooth, 0.0, 1.0)
-        return t * t * (3 - 2 * t)
-
-
-@dataclass(frozen=True, eq=False)
-class SunLight:
-    """direction (3,) the way the light travels; strength (3,) W/m^2 per channel (Blender:
-    strength x colour), the irradiance of a surface facing the sun."""
-
-    direction: np.ndarray
-    strength: np.ndarray
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "direction", _direction("direction", self.direction))
-        object.__setattr__(self, "strength", _vector("strength", self.strength, nonnegative=True))
-
-
-@dataclass(frozen=True, eq=False)
-class AreaLight:
-    """A flat emitter shining from the front of its triangles (K, 3, 3) (right-hand rule);
-    power (3,) W per channel over their total area A: radiance P / (pi A)."""
-
-    triangles: np.ndarray
-    power: np.ndarray
-
-    def __post_init__(self) -> None:
-        triangles = np.array(self.triangles, dtype=np.float64)
-        if triangles.ndim != 3 or triangles.shape[1:] != (3, 3) or len(triangles) == 0:
-            raise ValueError(f"triangles must have shape (K, 3, 3) with K >= 1, got {triangles.shape}")
-        if not np.isfinite(triangles).all():
-            raise ValueError("triangles must be finite")
-        if areas_and_normals(triangles)[0].sum() <= 0:
-            raise ValueError("an area light must have a positive area")
-        triangles.setflags(write=False)
-        object.__setattr__(self, "triangles", triangles)
-        object.__setattr__(self, "power", _vector("power", self.power, nonnegative=True))
-
-    @property
-    def radiance(self) -> np.ndarray:
-        """(3,) P / (pi A)."""
-        return self.power / (math.pi * areas_and_normals(self.triangles)[0].sum())
-
-
-# Sides of the polygon that stands for a disk or ellipse light (same area as the ellipse): its
-# form factors differ from the ellipse's by O(1/n^2) near the rim, 0.2% at 32 (tests/core/test_lights.py).
-ELLIPSE_SEGMENTS = 32
-AREA_SHAPES = ("SQUARE", "RECTANGLE", "DISK", "ELLIPSE")
-
-
-def area_light(shape: str, size: float, size_y: float, matrix: np.ndarray, power, normalize: bool = True) -> AreaLight:
-    """The AreaLight of a Blender area light: ``shape`` one of AREA_SHAPES, ``size`` (and
-    ``size_y`` for RECTANGLE and ELLIPSE) its widths in its local XY plane, shining down its
-    local -Z axis; ``matrix`` (4, 4) local to world (scale included). Without ``normalize``
-    (Blender 4.1+), ``power`` is what each square unit of the light emits."""
-    if shape not in AREA_SHAPES:
-        raise ValueError(f"area light shape must be one of {AREA_SHAPES}, got {shape!r}")
-    width = size
-    height = size if shape in ("SQUARE", "DISK") else size_y
-    if not (width > 0 and height > 0):
-        raise ValueError(f"an area light needs positive sizes, got {width} x {height}")
-    if shape in ("SQUARE", "RECTANGLE"):
-        outline = np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]]) / 2  # clockwise from +Z
-    else:
-        n = ELLIPSE_SEGMENTS
-        angle = -2 * np.pi * np.arange(n) / n
-        stretch = np.sqrt(2 * np.pi / (n * np.sin(2 * np.pi / n)))  # same area as the ellipse
-        outline = stretch * np.stack([np.cos(angle), np.sin(angle)], axis=1) / 2
-    matrix = np.asarray(matrix, dtype=np.float64)
-    local = np.column_stack([outline * [width, height], np.zeros(len(outline)), np.ones(len(outline))])
-    world = (local @ matrix.T)[:, :3]
-    fan = np.stack([np.zeros(len(world) - 2, int), np.arange(1, len(world) - 1), np.arange(2, len(world))], axis=1)
-    triangles = world[fan]
-    # a mirroring matrix keeps the winding but turns local -Z around: face where -Z points
-    if np.cross(triangles[0, 1] - triangles[0, 0], triangles[0, 2] - triangles[0, 0]) @ matrix[:3, 2] > 0:
-        triangles = triangles[:, ::-1]
-    if not normalize:
-        power = np.asarray(power, dtype=np.float64) * areas_and_normals(triangles)[0].sum()
-    return AreaLight(triangles, power)
-
-
-LIGHT_TYPES = (PointLight, SpotLight, SunLight, AreaLight)
-
-
-def check_lights(lights: Iterable) -> tuple:
-    """The lights as a tuple; TypeError naming the first item that is not a light."""
-    lights = tuple(lights)
-    for index, light in enumerate(lights):
-        if not isinstance(light, LIGHT_TYPES):
-            raise TypeError(f"lights[{index}] is a {type(light).__name__}, not one of "
-                            f"{', '.join(t.__name__ for t in LIGHT_TYPES)}")
-    return lights
 
 
 class DirectLighting:
@@ -200,7 +49,7 @@ class DirectLighting:
 
     rays : light samples per piece of an area light (as the bake's rays per form factor; the sky
         gets SKY_RAYS_PER_RAY times as many directions per point); seed fixes them. An area light
-        of few triangles is split into at least raycast.MIN_LIGHT_PIECES pieces (its penumbrae
+        of few triangles is split into at least ``discretize.MIN_LIGHT_PIECES`` pieces (its penumbrae
         need them), unless the splits of all of them would add more than MAX_ADDED_LIGHT_PIECES.
     """
 

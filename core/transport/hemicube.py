@@ -20,9 +20,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from .discretize import Discretization
-from .geometry import tangent_frames
-from .visibility import Visibility
+from ..mesh.discretize import Discretization
+from ..rays.visibility import Visibility
+from ..util.geometry import tangent_frames
 
 
 def _top(x, y):

@@ -17,17 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import spatial
-from .spatial import ranks
-from .geometry import areas_and_normals, longest_edges
-
-CONTACT_TOLERANCE = 1e-6  # distance to a plane, as a fraction of the triangle's longest edge, that counts as on it
-# 1 - |cos| below which two triangles are coplanar (or parallel) and do not cut each other: an angle
-# of 1e-3 radians. It absorbs float32 rounding (Blender's coordinates: 6e-8 of a 1 m scene, 1e-5
-# radians on a 1 cm triangle) and near-flat modelling (the Cornell box's left wall is a twisted
-# quad: split 40 x 40, neighbouring cells differ by 3e-4 radians, and at 1e-9 half of them cut
-# each other along their shared edges); a cylinder of 1,000 sides bends by 6e-3 radians.
-PARALLEL = 1 - np.cos(1e-3)
+from ..util.geometry import areas_and_normals, longest_edges
+from ..util.overlaps import CONTACT_TOLERANCE, PARALLEL, touching_boxes
+from ..util.spatial import ranks
 
 
 def pieces(corners: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -45,48 +37,11 @@ def pieces(corners: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.
     return np.concatenate([corners[uncut], cut])[order], owner[order]
 
 
-def coplanar_overlaps(corners: np.ndarray, owners: np.ndarray) -> np.ndarray:
-    """(T,) bool: whether another triangle (of another owner) lies in each triangle's plane and
-    overlaps its inside (``coplanar_overlap_pairs``)."""
-    result = np.zeros(len(corners), dtype=bool)
-    result[coplanar_overlap_pairs(corners, owners)[0]] = True
-    return result
-
-
-def coplanar_overlap_pairs(corners: np.ndarray, owners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Pairs (a, b) of triangles, each pair both ways, where b (of another owner than a) lies in
-    a's plane (within CONTACT_TOLERANCE of its size) and overlaps its inside (z-fighting faces, a
-    card's two faces): neighbours that only share edges or corners do not count. Separating axes
-    in the plane: the two overlap unless the six edge normals part their projections by more
-    than the tolerance."""
-    areas, normals = areas_and_normals(corners)
-    valid = np.flatnonzero(areas > 0)
-    first, second = _touching_boxes(corners[valid])
-    a, b = valid[first], valid[second]
-    keep = (owners[a] != owners[b]) & (np.abs((normals[a] * normals[b]).sum(axis=1)) >= 1 - PARALLEL)
-    a, b = a[keep], b[keep]
-    tolerance = CONTACT_TOLERANCE * longest_edges(corners[a])
-    heights = np.einsum("kcx,kx->kc", corners[b] - corners[a][:, :1], normals[a])
-    a, b, tolerance = (x[(np.abs(heights) <= tolerance[:, None]).all(axis=1)] for x in (a, b, tolerance))
-    overlap = np.ones(len(a), dtype=bool)
-    for triangle in (a, b):
-        for i in range(3):
-            edge = corners[triangle, (i + 1) % 3] - corners[triangle, i]
-            axis = np.cross(normals[a], edge)
-            axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-            project_a = np.einsum("kcx,kx->kc", corners[a], axis)
-            project_b = np.einsum("kcx,kx->kc", corners[b], axis)
-            apart = (project_a.max(axis=1) <= project_b.min(axis=1) + tolerance) | \
-                (project_b.max(axis=1) <= project_a.min(axis=1) + tolerance)
-            overlap &= ~apart
-    return a[overlap], b[overlap]
-
-
 def _contact_lines(corners: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The lines that cut triangles met by another inside: (L,) the triangle each cuts, sorted,
     and (L, 3) start and end of each."""
     valid = np.flatnonzero(~degenerate)
-    first, second = _touching_boxes(corners[valid])
+    first, second = touching_boxes(corners[valid])
     target, other = valid[first], valid[second]
     _, normals = areas_and_normals(corners)
     crossing = np.abs((normals[target] * normals[other]).sum(axis=1)) < 1 - PARALLEL
@@ -102,15 +57,6 @@ def _contact_lines(corners: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndar
                                            CONTACT_TOLERANCE * size[target]) > 0)
     inside = inside[np.argsort(target[inside], kind="stable")]
     return target[inside], start[inside], end[inside]
-
-
-def _touching_boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Pairs of triangles (k, 3, 3) whose bounding boxes, grown by CONTACT_TOLERANCE of the
-    triangle's size, touch: the candidates for meeting (each pair both ways, and each with
-    itself)."""
-    pad = (CONTACT_TOLERANCE * longest_edges(corners))[:, None]
-    low, high = corners.min(axis=1) - pad, corners.max(axis=1) + pad
-    return spatial.overlapping_boxes(low, high, low, high)
 
 
 def _plane_sections(triangles: np.ndarray, heights: np.ndarray):

@@ -16,19 +16,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..rays.visibility import RAY_EPSILON, Visibility
+from ..util.geometry import barycentric_grid, longest_edges
 from .analytic import point_to_triangle
-from .geometry import barycentric_grid, longest_edges
-from .visibility import RAY_EPSILON, Visibility
 
 _GOLDEN = (np.sqrt(5) - 1) / 2
-# A light (an emitting surface, an area light) is sampled from at least this many pieces, each with
-# the rays of a form factor, its triangles divided up to MAX_LIGHT_DIVISIONS times per edge: a small
-# light is most of a scene's light, and the penumbrae it casts need the finer sampling (a square
-# light's penumbra, tests/core/test_light_sampling.py: 6.9 % RMS from the exact one in 2 pieces,
-# 1.3 % in 18; the sample Cornell box, 8 pieces -> 32: 0.82 -> 0.57 % from the converged answer,
-# 1 % more time).
-MIN_LIGHT_PIECES = 16
-MAX_LIGHT_DIVISIONS = 4
 # An emitting patch whose centroid is closer to a point than CLOSE_REACH of its longest edge is
 # sampled from there with CLOSE_RAYS rays, none skipped by the probes: a few samples of a large
 # source decide most of a point's direct light, and a blocker near the point (a moulding's lip)
@@ -45,13 +37,6 @@ def check_ray_count(count: int) -> int:
     if count < 1 or divisions * divisions != count:
         raise ValueError(f"rays per form factor must be a perfect square (1, 4, 9, 16, ...), got {count}")
     return divisions
-
-
-def light_divisions(pieces: np.ndarray) -> np.ndarray:
-    """Divisions per edge for the triangles of lights made of ``pieces`` triangles each (int
-    array): ceil(sqrt(MIN_LIGHT_PIECES / pieces)), from 1 to MAX_LIGHT_DIVISIONS."""
-    wanted = np.ceil(np.sqrt(MIN_LIGHT_PIECES / np.maximum(np.asarray(pieces, dtype=np.float64), 1)))
-    return np.clip(wanted, 1, MAX_LIGHT_DIVISIONS).astype(np.int64)
 
 
 def stratified_samples(patch_corners: np.ndarray, count: int, seed: int) -> np.ndarray:

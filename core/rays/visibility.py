@@ -13,8 +13,8 @@ import threading
 
 import numpy as np
 
-from .contacts import coplanar_overlap_pairs
-from .geometry import ENCLOSING_TOLERANCE, areas_and_normals, enclosing
+from ..util.geometry import ENCLOSING_TOLERANCE, areas_and_normals, enclosing
+from ..util.overlaps import coplanar_overlap_pairs
 from .numpy_tracer import NumpyTracer
 
 # Rays start and stop this far (in unit space, where the scene's extent is 1) from their end points, so a ray does not hit the surface it leaves or the one it aims at (float32
@@ -52,7 +52,7 @@ class Visibility:
     owners : (P,) int, the surface each belongs to (by default each its own): a ray aimed at a
         surface is not blocked by the surface itself (``raycast``).
     coplanar_pairs : (a, b), each b a triangle of another owner lying over a in its plane, each
-        pair both ways (``contacts.coplanar_overlap_pairs``).
+        pair both ways (``overlaps.coplanar_overlap_pairs``).
     coplanar_overlaps : (P,) bool, whether a triangle has any.
     enclosing : (P,) bool, the triangles with every corner on or in front of their plane
         (``geometry.enclosing``, to ENCLOSING_TOLERANCE), as a room's walls:

@@ -3,7 +3,7 @@
 A wall modelled as a 40 x 40 grid has 3,200 triangles where radiosity needs a few dozen patches:
 each input triangle would otherwise be at least one patch, and the solve's cost grows with the
 patches times the receivers. Here the triangles of each flat region (one reflectance, emission,
-material and sidedness, neighbours across shared edges parallel within contacts.PARALLEL) are
+material and sidedness, neighbours across shared edges parallel within PARALLEL) are
 simplified by half-edge collapses (Hoppe 1996, "Progressive meshes"), restricted so that the region
 does not change: a vertex is removed only from inside its region or from a straight stretch of its
 outline, and only onto a neighbour, so every remaining vertex is an input vertex and the region's
@@ -25,10 +25,11 @@ from typing import Callable
 
 import numpy as np
 
-from . import contacts, spatial
-from .discretize import DEGENERATE_AREA_RATIO, connected_components, weld_corners
-from .geometry import areas_and_normals, barycentric, longest_edges, triangle_corners
-from .scene import Scene
+from ..scene import Scene
+from ..util import spatial
+from ..util.geometry import areas_and_normals, barycentric, longest_edges, triangle_corners
+from ..util.overlaps import PARALLEL
+from .topology import connected_components, degenerate, weld_corners
 
 # A collapse keeps the vertex it removes within this fraction of each changed triangle's longest
 # edge of its plane (the left wall's panels: within 0.3 % of their size).
@@ -78,22 +79,22 @@ def panels(scene: Scene, panel_size: float,
     None when no triangle can be merged (every panel would be an input triangle); ``report``
     hears the fraction of the vertices settled after each pass of collapses."""
     corners = triangle_corners(scene.vertices, scene.triangles)
-    areas, normals = areas_and_normals(corners)
-    degenerate = areas <= DEGENERATE_AREA_RATIO * longest_edges(corners) ** 2
-    if degenerate.all():
+    normals = areas_and_normals(corners)[1]
+    zero_area = degenerate(corners)
+    if zero_area.all():
         return None
     weld = weld_corners(corners, scene.extent)
-    region = _regions(scene, normals, weld, degenerate)
+    region = _regions(scene, normals, weld, zero_area)
     # vertices are per region: regions decimate independently
     vertex_key, local = np.unique(np.stack([np.repeat(region, 3), weld.ravel()], axis=1), axis=0,
                                   return_inverse=True)
     local = local.reshape(-1, 3)
     positions = np.zeros((len(vertex_key), 3))
     positions[local.ravel()] = corners.reshape(-1, 3)
-    alive = local[~degenerate].copy()
-    owner = np.flatnonzero(~degenerate)  # input triangle each alive triangle came from
+    alive = local[~zero_area].copy()
+    owner = np.flatnonzero(~zero_area)  # input triangle each alive triangle came from
     # the vertices of degenerate triangles stay, in every region: those triangles stay as they are
-    fixed = np.isin(vertex_key[:, 1], weld[degenerate].ravel())
+    fixed = np.isin(vertex_key[:, 1], weld[zero_area].ravel())
     flat = STRAIGHT * scene.extent
     # an emitter's patches are where its light is sampled from: larger ones blur the shadows it
     # casts (the sample Cornell box's light in 2 panels, not 8 triangles: 1.3 % further from
@@ -122,13 +123,13 @@ def panels(scene: Scene, panel_size: float,
     if not removed_any:
         return None
     # the degenerate triangles stay as they are, so their corners still find their neighbours
-    panel_vertices = np.concatenate([alive, local[degenerate]])
-    panel_source = np.concatenate([owner, np.flatnonzero(degenerate)])
+    panel_vertices = np.concatenate([alive, local[zero_area]])
+    panel_source = np.concatenate([owner, np.flatnonzero(zero_area)])
     corner_panel, corner_weights = _locate(local, positions, panel_vertices, region, panel_source)
     triangle_panel = np.full(len(corners), -1)
     unchanged = (alive == local[owner]).all(axis=1)
     triangle_panel[owner[unchanged]] = np.flatnonzero(unchanged)
-    triangle_panel[degenerate] = len(alive) + np.arange(degenerate.sum())
+    triangle_panel[zero_area] = len(alive) + np.arange(zero_area.sum())
     input_corner = np.empty(len(positions), dtype=np.int64)
     input_corner[local.ravel()] = np.arange(local.size)
     used, compact = np.unique(panel_vertices, return_inverse=True)
@@ -139,22 +140,22 @@ def panels(scene: Scene, panel_size: float,
                   triangle_panel)
 
 
-def _regions(scene: Scene, normals, weld, degenerate) -> np.ndarray:
+def _regions(scene: Scene, normals, weld, zero_area) -> np.ndarray:
     """(T,) region label: triangles of one surface (reflectance, emission, material, sidedness)
-    joined across shared edges where they are parallel within contacts.PARALLEL; a degenerate
+    joined across shared edges where they are parallel within PARALLEL; a degenerate
     triangle is a region of its own."""
     count = len(normals)
     surface = np.concatenate([scene.reflectance, scene.emission, scene.material[:, None],
                               scene.two_sided[:, None]], axis=1)
     surface_id = np.unique(surface, axis=0, return_inverse=True)[1].ravel()
-    surface_id[degenerate] = surface_id.max() + 1 + np.arange(degenerate.sum())
+    surface_id[zero_area] = surface_id.max() + 1 + np.arange(zero_area.sum())
     triangle = np.tile(np.arange(count), 3)
     ends = np.concatenate([weld[:, [0, 1]], weld[:, [1, 2]], weld[:, [2, 0]]])
     keys = np.concatenate([np.sort(ends, axis=1), surface_id[triangle][:, None]], axis=1)
     order = np.lexsort(keys.T[::-1])
     same = (keys[order][1:] == keys[order][:-1]).all(axis=1)
     a, b = triangle[order][:-1][same], triangle[order][1:][same]
-    flat = np.einsum("kx,kx->k", normals[a], normals[b]) >= 1 - contacts.PARALLEL
+    flat = np.einsum("kx,kx->k", normals[a], normals[b]) >= 1 - PARALLEL
     return connected_components(count, np.stack([a[flat], b[flat]], axis=1))
 
 

@@ -4,28 +4,23 @@ blocks sized to a ray budget so that memory stays bounded and progress is report
 from __future__ import annotations
 
 from functools import cached_property
-from typing import Callable
 
 import numpy as np
 
-from . import hemicube, parallel, raycast, receivers
-from .discretize import Discretization, discretize
-from .scene import Scene
-from .visibility import Visibility
+from ..mesh.discretize import Discretization, discretize
+from ..rays.visibility import Visibility
+from ..scene import Scene
+from ..settings import METHODS
+from ..util import parallel
+from ..util.progress import Report, quiet
+from . import hemicube, raycast, receivers
 
-METHODS = ("hemicube", "raycast")
 # Rays and point-patch pairs per block: about 0.03 s of work on one core, so that progress is
 # reported well within its 0.2 s promise while the pool stays busy.
 RAYS_PER_BLOCK = 1 << 18
 PAIRS_PER_BLOCK = 1 << 14
 # Pixels across the hemicube that measures how much of a shooter's light lands on patches.
 CAPTURE_RESOLUTION = 8
-
-Report = Callable[[float], None]
-
-
-def _quiet(_fraction: float) -> None:
-    pass
 
 
 class FormFactorEngine:
@@ -64,6 +59,14 @@ class FormFactorEngine:
         self.raycaster = None if method == "hemicube" else raycast.RayCaster(
             mesh.patch_corners, mesh.patch_normals, mesh.patch_areas, self.visibility, rays_per_form_factor, seed,
             patch_owners=mesh.patch_triangle, probing=probing, emitting=mesh.patch_emission.any(axis=1))
+
+    def refined(self, mesh: Discretization) -> FormFactorEngine:
+        """An engine with this one's settings for ``mesh``, this one's patches refined: ray
+        casting keeps this one's occluders (the same surfaces), the hemicube traces the new
+        patches (its pixels show patch indices)."""
+        rays, seed, probing = self._ray_settings
+        return FormFactorEngine(mesh, self.method, self.resolution, rays, seed,
+                                visibility=self.visibility if self.method == "raycast" else None, probing=probing)
 
     def point_form_factors(self, points: np.ndarray, normals: np.ndarray, receivers: np.ndarray,
                            sources: np.ndarray) -> np.ndarray:
@@ -124,7 +127,7 @@ class FormFactorEngine:
     def _pairs_per_block(self) -> int:
         return max(1, min(PAIRS_PER_BLOCK, RAYS_PER_BLOCK // self.raycaster.rays))
 
-    def rows(self, points: np.ndarray, normals: np.ndarray, report: Report = _quiet) -> np.ndarray:
+    def rows(self, points: np.ndarray, normals: np.ndarray, report: Report = quiet) -> np.ndarray:
         """(m, P) form factors from points (m, 3) facing normals (m, 3) to every patch."""
         sources = np.arange(self.mesh.patch_count)
         result = np.empty((len(points), len(sources)))  # filled in place: the matrix exists once
@@ -135,7 +138,7 @@ class FormFactorEngine:
         return result
 
     def gather(self, points: np.ndarray, normals: np.ndarray, radiosity: np.ndarray,
-               report: Report = _quiet) -> np.ndarray:
+               report: Report = quiet) -> np.ndarray:
         """(m, C) sum_q F(point -> q) B_q at each point, without storing F."""
         if len(points) == 0:
             return np.zeros((0, radiosity.shape[1]))
@@ -156,12 +159,12 @@ class FormFactorEngine:
             report(min(1.0, done * size / max(1, len(points))))
             yield part
 
-    def patch_rows(self, patches: np.ndarray, report: Report = _quiet) -> np.ndarray:
+    def patch_rows(self, patches: np.ndarray, report: Report = quiet) -> np.ndarray:
         """(m, P) F[p, q] for the receiving patches ``patches``."""
         mesh = self.mesh
         return self.rows(self.receiving_points[patches], mesh.patch_normals[patches], report)
 
-    def shooting_columns(self, sources: np.ndarray, report: Report = _quiet) -> tuple[np.ndarray, np.ndarray]:
+    def shooting_columns(self, sources: np.ndarray, report: Report = quiet) -> tuple[np.ndarray, np.ndarray]:
         """F[r, q] for every receiver r and each patch q in ``sources`` (k,): what q shoots; and
         the share of each q's light that lands on a patch (k,): 1 in a closed scene.
 

@@ -1,4 +1,4 @@
-"""The path-traced reference (core/pathtrace.py) against exact answers: the furnace (every
+"""The path-traced reference (bench/pathtrace.py) against exact answers: the furnace (every
 bounce: G = E / (1 - rho)), the contour integral of a square emitter (the direct light alone), a
 blocker that hides it, and the back of a two-sided emitter."""
 
@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from core import Scene
-from core.analytic import point_to_triangle
-from core.discretize import discretize
-from core.pathtrace import path_traced
-from core.visibility import Visibility
+from core.transport.analytic import point_to_triangle
+from core.mesh.discretize import discretize
+from bench.pathtrace import path_traced
+from core.rays.visibility import Visibility
 from tests.core.scenes import box, merge, quad, uniform
 
 

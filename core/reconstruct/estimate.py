@@ -3,7 +3,7 @@ distributed (or, where Monte Carlo carried it, the final gather's noise: ``monte
 plus the error of representing radiosity as constant over each patch.
 
 Errors are relative RMS over the receiver nodes that emit nothing, all channels:
-sqrt(mean |c - c*|^2) / mean |c*| (the NRMSE the benchmarks measure, docs/tradeoffs.md).
+sqrt(mean |c - c*|^2) / mean |c*| (the NRMSE the benchmarks measure, docs/results/tradeoffs.md).
 
 Discretisation, by the first of three measures that applies:
 - with ray casting and the near field, how far the patches next to each node are from linear,
@@ -24,10 +24,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .discretize import Discretization
+from ..mesh.discretize import Discretization
 
 LEVEL_FACTOR = 2.0
-# Ray geometry is float32 in a unit-size space (visibility.py): no estimate claims better.
+# Ray geometry is float32 in a unit-size space (``rays.visibility``): no estimate claims better.
 ROUNDING_FLOOR = 1e-6
 
 
@@ -98,3 +98,25 @@ def corner_patch_gap(mesh: Discretization, colors: np.ndarray, radiosity: np.nda
         references.append(colors[node])
         quiet.append(~mesh.node_emission[node].any(axis=1))
     return relative_rms(np.concatenate(differences), np.concatenate(references), np.concatenate(quiet))
+
+
+def of_bake(mesh: Discretization, colors: np.ndarray, radiosity: np.ndarray, receiving_points: np.ndarray,
+            method: str, solve_stats: dict, level_change: float | None, noise: np.ndarray | None,
+            near_errors: np.ndarray | None) -> dict:
+    """{"unshot", "discretisation", "total"}: the estimate of a bake whose node colours are
+    ``colors`` (N, C) over patches of ``radiosity`` (P, C), as the module docstring says: the
+    solver's part from ``solve_stats`` (or the Monte Carlo ``noise`` (N, C) of the nodes'
+    lighting), the discretisation's from the near field's ``near_errors`` (N, C; ray casting), the
+    last refinement level's ``level_change``, or the corner-patch gap."""
+    change = level_change
+    if near_errors is not None and method == "raycast":  # tighter than the level change
+        change = near_field_error(mesh, colors, near_errors)
+    if change is None:
+        change = corner_patch_gap(mesh, colors, radiosity, receiving_points)
+    elif method == "hemicube":  # the gap is what covers the hemicube's aliasing
+        change = max(change, corner_patch_gap(mesh, colors, radiosity, receiving_points))
+    if noise is None:
+        left = solver_error(mesh, radiosity, solve_stats)
+    else:  # the light not shot is distributed, up to the final gather's noise
+        left = monte_carlo_error(mesh, colors, mesh.node_reflectance[:, : colors.shape[1]] * noise)
+    return {"unshot": left, "discretisation": change, "total": max(left + change, ROUNDING_FLOOR)}

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .geometry import barycentric_grid
-from .scene import Scene
+from ..util.geometry import barycentric_grid
+from .model import Scene
 
 DEFAULT_REFLECTANCE = (0.8, 0.8, 0.8)  # Blender's default material base colour
 

@@ -32,11 +32,12 @@ from typing import Callable
 
 import numpy as np
 
-from . import parallel, rows
-from .spatial import ranks
-from .discretize import Discretization
-from .geometry import barycentric, tangent_frames
-from .visibility import Visibility
+from ..mesh.discretize import Discretization
+from ..rays.visibility import Visibility
+from ..util import parallel, rows
+from ..util.geometry import barycentric, tangent_frames
+from ..util.progress import Report, quiet
+from ..util.spatial import ranks
 
 # Particles or gather points per block of work on the thread pool.
 PARTICLES_PER_BLOCK = 1 << 15
@@ -50,13 +51,6 @@ LAYERS_PER_CELL = 4
 # 64 / 256 / 1,024 rays with 4 / 16 / 64 particles per patch leave 5.1 / 2.2 / 0.95 % from the
 # converged answer (the shots of the light alone before them; seed 0).
 PARTICLES_PER_RAY = 1 / 16
-
-Report = Callable[[float], None]
-
-
-def _quiet(_fraction: float) -> None:
-    pass
-
 
 @dataclass(frozen=True)
 class Gathered:
@@ -166,7 +160,7 @@ class Surfaces:
 
 
 def trace(mesh: Discretization, visibility: Visibility, unshot: np.ndarray, reflectance: np.ndarray,
-          particles: int, seed: int = 0, report: Report = _quiet) -> np.ndarray:
+          particles: int, seed: int = 0, report: Report = quiet) -> np.ndarray:
     """(P, C) the particle-tracing estimate of X = U + rho F X for ``unshot`` U (P, C) and
     ``reflectance`` rho (P, C), from ``particles`` paths (see the module docstring), the power
     arriving read over pools of patches (``pooled``)."""
@@ -258,7 +252,7 @@ def pooled(mesh: Discretization, arrived: np.ndarray, hits: np.ndarray, min_hits
 
 
 def gather(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
-           values: np.ndarray, rays: int, seed: int = 0, report: Report = _quiet) -> Gathered:
+           values: np.ndarray, rays: int, seed: int = 0, report: Report = quiet) -> Gathered:
     """The final gather of patch ``values`` (P, C) at ``points`` (n, 3) facing unit ``normals``
     (n, 3) with ``rays`` (a perfect square) cosine-distributed directions each, from one uniform
     point in each of the rays congruent squares of the unit square (jittered strata)."""

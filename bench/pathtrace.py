@@ -22,24 +22,16 @@ on its back patch). Emitting surfaces only: lights (``lights``) and the sky are 
 
 from __future__ import annotations
 
-from typing import Callable
-
 import numpy as np
 
-from .discretize import Discretization
-from .montecarlo import Gathered, Surfaces, cosine_directions, uniform_points
-from .visibility import RAY_EPSILON, Visibility
+from core.mesh.discretize import Discretization
+from core.rays.visibility import RAY_EPSILON, Visibility
+from core.solve.montecarlo import Gathered, Surfaces, cosine_directions, uniform_points
+from core.util.progress import Report, quiet
 
 MIN_SURVIVAL = 0.05
 MAX_BOUNCES = 256
 PATHS_PER_BLOCK = 1 << 17
-
-Report = Callable[[float], None]
-
-
-def _quiet(_fraction: float) -> None:
-    pass
-
 
 class _Emitters:
     """The emitting patches, sampled in proportion to their power."""
@@ -109,7 +101,7 @@ def _solid_angle_densities(area_density: np.ndarray, squared: np.ndarray, cos_he
 
 
 def path_traced(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
-                paths: int, seed: int = 0, report: Report = _quiet) -> Gathered:
+                paths: int, seed: int = 0, report: Report = quiet) -> Gathered:
     """G at ``points`` (n, 3) facing unit ``normals`` (n, 3) from ``paths`` paths each (see the
     module docstring), with the standard error of each estimate from the spread of its paths.
     ``visibility`` holds the mesh's front patches (as for ``montecarlo``)."""

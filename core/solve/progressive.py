@@ -1,36 +1,20 @@
-"""Solvers for the radiosity system B = E + rho * (F @ B), all channels at once, float64.
-
-Each returns the radiosity (P, C) and a dict of what it measured. ``report(fraction, detail)``
-is called often; it raises BakeCancelled to stop.
+"""Progressive refinement: B = E + rho * (F @ B) solved by shooting, matrix-free, all channels
+at once, float64; ``report(fraction, detail)`` is called often and raises BakeCancelled to stop.
 """
 
 from __future__ import annotations
 
-import math
-import time
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
-SOLVERS = ("progressive", "jacobi", "gauss_seidel")
+from ..util.progress import Report, effort, quiet
+
 # Progressive refinement shoots, with the brightest patch, every patch whose unshot power is at
 # least this share of its: one matrix product instead of a loop of shots (a block of Southwell's
 # method), which changes little in what is shot.
 TOGETHER = 0.5
-
-Report = Callable[[float, str], None]
-
-
-def _quiet(_fraction: float, _detail: str) -> None:
-    pass
-
-
-def _effort(fraction_left: float, tolerance: float) -> float:
-    """Progress 0..1 as the (log of the) remaining fraction falls from 1 to the tolerance."""
-    if fraction_left <= tolerance:
-        return 1.0
-    return min(max(math.log(fraction_left) / math.log(tolerance), 0.0), 1.0)
 
 
 @dataclass
@@ -62,7 +46,7 @@ def progressive(
     max_shots: int | None = None,
     cache_bytes: int = 1 << 30,
     batch: int = 16,
-    report: Report = _quiet,
+    report: Report = quiet,
     state: ShootingState | None = None,
     first: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
@@ -143,10 +127,10 @@ def progressive(
             excess = len(cache) + len(wanted) - max(cache_limit, len(group))
             for q in [q for q in cache if q not in members][: max(0, excess)]:
                 del cache[q]
-            effort, detail = _effort(left, tolerance), f"{state.shots} shots, form factors of {len(wanted)} more"
+            done, detail = effort(left, tolerance), f"{state.shots} shots, form factors of {len(wanted)} more"
             for start in range(0, len(wanted), batch):  # (P + N, batch) at a time
                 part = wanted[start:start + batch]
-                fetched, captures = columns(np.array(part), lambda _done: report(effort, detail))
+                fetched, captures = columns(np.array(part), lambda _done: report(done, detail))
                 for q, factors, capture in zip(part, fetched.T, np.clip(captures, 0.0, 1.0)):
                     cache[q] = (factors, float(capture))
         shooting = unshot[group].copy()  # (k, C)
@@ -164,7 +148,7 @@ def progressive(
         unshot += received[:patch_count]
         state.shots += len(group)
         left, light = undistributed()
-        report(_effort(left, tolerance), f"{state.shots} shots, {100 * left:.2g}% unshot")
+        report(effort(left, tolerance), f"{state.shots} shots, {100 * left:.2g}% unshot")
     captured = state.power_captured / state.power_shot if state.power_shot > 0 else 1.0
     ambient_term = (areas @ unshot) / total_area * captured / (1.0 - captured * mean_reflectance)
     result = radiosity + all_reflectance * ambient_term if ambient else radiosity.copy()
@@ -182,80 +166,3 @@ def progressive(
 def _pending(unshot: np.ndarray, first: np.ndarray | None) -> bool:
     """Whether a patch of ``first`` still has light to shoot."""
     return first is not None and bool(unshot[first].any())
-
-
-def _bound_factor(matrix: np.ndarray, reflectance: np.ndarray) -> float:
-    """max_p rho_p sum_q |F_pq|: the contraction factor of the iteration (< 1 is required)."""
-    row_sums = np.abs(matrix).sum(axis=1)
-    return float((reflectance.max(axis=1) * row_sums).max())
-
-
-def _check_contraction(factor: float) -> None:
-    if factor >= 1.0:
-        raise ValueError(
-            f"the system does not converge: max rho * row sum of F = {factor:.6g} >= 1 "
-            "(a form factor row sums to more than 1 / rho)"
-        )
-
-
-def jacobi(
-    matrix: np.ndarray,
-    reflectance: np.ndarray,
-    emission: np.ndarray,
-    tolerance: float = 1e-3,
-    max_iterations: int = 1_000_000,
-    report: Report = _quiet,
-    initial: np.ndarray | None = None,
-) -> tuple[np.ndarray, dict]:
-    """Jacobi iteration B <- E + rho * (F @ B), that is B <- B + r for the residual
-    r = E + rho F B - B, from B = ``initial`` (default E). Stops on the error bound of
-    ``_iterate``."""
-    return _iterate(lambda radiosity, residual: radiosity + residual, "iteration",
-                    matrix, reflectance, emission, tolerance, max_iterations, report, initial)
-
-
-def gauss_seidel(
-    matrix: np.ndarray,
-    reflectance: np.ndarray,
-    emission: np.ndarray,
-    tolerance: float = 1e-3,
-    max_iterations: int = 1_000_000,
-    report: Report = _quiet,
-    initial: np.ndarray | None = None,
-) -> tuple[np.ndarray, dict]:
-    """Gauss-Seidel: each sweep updates B_p = E_p + rho_p sum_q F_pq B_q in place, row by row,
-    using the newest values, from B = ``initial`` (default E). Stops on the error bound of
-    ``_iterate``."""
-    last_report = [time.perf_counter()]
-
-    def sweep(radiosity, residual):
-        effort = _effort(np.abs(residual).max() / max(np.abs(radiosity).max(), np.finfo(float).tiny), tolerance)
-        for row in range(len(matrix)):
-            radiosity[row] = emission[row] + reflectance[row] * (matrix[row] @ radiosity)
-            if time.perf_counter() - last_report[0] > 0.05:
-                last_report[0] = time.perf_counter()
-                report(effort, f"sweep row {row} of {len(matrix)}")
-        return radiosity
-
-    return _iterate(sweep, "sweep", matrix, reflectance, emission, tolerance, max_iterations, report, initial)
-
-
-def _iterate(sweep, name, matrix, reflectance, emission, tolerance, max_iterations, report,
-             initial=None) -> tuple[np.ndarray, dict]:
-    """Run ``sweep(B, r)`` until the error bound is at most ``tolerance`` * |B|_inf: with
-    q = max_p rho_p sum_q |F_pq| < 1 (a contraction), |B - B*|_inf <= |r|_inf / (1 - q)."""
-    factor = _bound_factor(matrix, reflectance)
-    _check_contraction(factor)
-    radiosity = (emission if initial is None else initial).copy()
-    iterations = 0
-    while True:
-        residual = emission + reflectance * (matrix @ radiosity) - radiosity
-        scale = np.abs(radiosity).max()
-        error_bound = np.abs(residual).max() / (1 - factor) / scale if scale > 0 else 0.0
-        if error_bound <= tolerance or iterations >= max_iterations:
-            break
-        report(_effort(error_bound, tolerance), f"{name} {iterations}, error bound {error_bound:.2g}")
-        radiosity = sweep(radiosity, residual)
-        iterations += 1
-    return radiosity, {"iterations": iterations, "converged": bool(error_bound <= tolerance),
-                       "residual": float(np.abs(residual).max()), "error_bound": float(error_bound)}

@@ -30,12 +30,13 @@ from typing import Callable
 
 import numpy as np
 
-from . import parallel, rows, spatial
-from .analytic import point_to_triangle
-from .discretize import Discretization, inset
-from .geometry import barycentric_grid, longest_edges
-from .refine import radiosity_scale
-from .scene import Scene
+from ..mesh.discretize import Discretization
+from ..mesh.nodes import inset
+from ..mesh.refine import radiosity_scale
+from ..scene import Scene
+from ..transport.analytic import point_to_triangle
+from ..util import parallel, rows, spatial
+from ..util.geometry import barycentric_grid, longest_edges
 
 NEAR_REACH = 1.25  # a patch is near a node whose point lies within this many longest edges of its centroid
 # Where a node looks on a patch: the patch split into 4 x 4 pieces, and where one piece holds

@@ -1,0 +1,40 @@
+"""Per-corner output: the colour B = E + rho G and the lighting G at each corner of each input
+triangle from its receiver node (Gouraud-ready), and each triangle's mean radiosity."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..mesh.discretize import Discretization
+from ..scene import Scene
+
+
+def per_corner(scene: Scene, mesh: Discretization, radiosity: np.ndarray, node_lighting: np.ndarray,
+               triangle_panel: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Corner colours (T, 3, 3) and lighting (T, 3, 3) from the nodes' lighting (N, C), and
+    triangle means (T, 3) from the front patches of each triangle's panel (``triangle_panel``:
+    the panel that is the triangle, -1 where it was merged into a larger one, whose mean is then
+    its corners'); RGB float64. A corner without a node (a zero-area triangle with no neighbour)
+    shows its triangle's emission and no lighting."""
+    count = len(scene.triangles)
+    rgb = np.broadcast_to(radiosity, (len(radiosity), 3)) if radiosity.shape[1] == 1 else radiosity
+    lighting = np.broadcast_to(node_lighting, (len(node_lighting), 3))
+    nodes = mesh.node_radiosity(lighting)
+    corner_node = mesh.corner_node
+    has_node = (corner_node >= 0)[..., None]
+    corner_colors = np.where(has_node, nodes[np.maximum(corner_node, 0)], scene.emission[:, None, :])
+    corner_lighting = np.where(has_node, lighting[np.maximum(corner_node, 0)], 0.0)
+    front = np.arange(mesh.front_patch_count)
+    owner = mesh.patch_triangle[front]
+    if triangle_panel is not None:  # panels to input triangles
+        panel_triangle = np.full(len(mesh.panel_corners), -1)
+        panel_triangle[triangle_panel[triangle_panel >= 0]] = np.flatnonzero(triangle_panel >= 0)
+        owner = panel_triangle[owner]
+        front, owner = front[owner >= 0], owner[owner >= 0]
+    weights = mesh.patch_areas[front]
+    area = np.bincount(owner, weights=weights, minlength=count)
+    sums = np.stack([np.bincount(owner, weights=weights * rgb[front, c], minlength=count) for c in range(3)], axis=1)
+    triangle_radiosity = np.where(
+        (area > 0)[:, None], sums / np.where(area > 0, area, 1.0)[:, None], corner_colors.mean(axis=1)
+    )
+    return np.ascontiguousarray(corner_colors), triangle_radiosity, np.ascontiguousarray(corner_lighting)

@@ -1,0 +1,88 @@
+"""Jacobi and Gauss-Seidel on an explicit form-factor matrix: B = E + rho * (F @ B), all channels
+at once, float64, stopped by an error bound; ``report(fraction, detail)`` is called often and
+raises BakeCancelled to stop."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..util.progress import Report, effort, quiet
+
+
+def _bound_factor(matrix: np.ndarray, reflectance: np.ndarray) -> float:
+    """max_p rho_p sum_q |F_pq|: the contraction factor of the iteration (< 1 is required)."""
+    row_sums = np.abs(matrix).sum(axis=1)
+    return float((reflectance.max(axis=1) * row_sums).max())
+
+
+def _check_contraction(factor: float) -> None:
+    if factor >= 1.0:
+        raise ValueError(
+            f"the system does not converge: max rho * row sum of F = {factor:.6g} >= 1 "
+            "(a form factor row sums to more than 1 / rho)"
+        )
+
+
+def jacobi(
+    matrix: np.ndarray,
+    reflectance: np.ndarray,
+    emission: np.ndarray,
+    tolerance: float = 1e-3,
+    max_iterations: int = 1_000_000,
+    report: Report = quiet,
+    initial: np.ndarray | None = None,
+) -> tuple[np.ndarray, dict]:
+    """Jacobi iteration B <- E + rho * (F @ B), that is B <- B + r for the residual
+    r = E + rho F B - B, from B = ``initial`` (default E). Stops on the error bound of
+    ``_iterate``."""
+    return _iterate(lambda radiosity, residual: radiosity + residual, "iteration",
+                    matrix, reflectance, emission, tolerance, max_iterations, report, initial)
+
+
+def gauss_seidel(
+    matrix: np.ndarray,
+    reflectance: np.ndarray,
+    emission: np.ndarray,
+    tolerance: float = 1e-3,
+    max_iterations: int = 1_000_000,
+    report: Report = quiet,
+    initial: np.ndarray | None = None,
+) -> tuple[np.ndarray, dict]:
+    """Gauss-Seidel: each sweep updates B_p = E_p + rho_p sum_q F_pq B_q in place, row by row,
+    using the newest values, from B = ``initial`` (default E). Stops on the error bound of
+    ``_iterate``."""
+    last_report = [time.perf_counter()]
+
+    def sweep(radiosity, residual):
+        done = effort(np.abs(residual).max() / max(np.abs(radiosity).max(), np.finfo(float).tiny), tolerance)
+        for row in range(len(matrix)):
+            radiosity[row] = emission[row] + reflectance[row] * (matrix[row] @ radiosity)
+            if time.perf_counter() - last_report[0] > 0.05:
+                last_report[0] = time.perf_counter()
+                report(done, f"sweep row {row} of {len(matrix)}")
+        return radiosity
+
+    return _iterate(sweep, "sweep", matrix, reflectance, emission, tolerance, max_iterations, report, initial)
+
+
+def _iterate(sweep, name, matrix, reflectance, emission, tolerance, max_iterations, report,
+             initial=None) -> tuple[np.ndarray, dict]:
+    """Run ``sweep(B, r)`` until the error bound is at most ``tolerance`` * |B|_inf: with
+    q = max_p rho_p sum_q |F_pq| < 1 (a contraction), |B - B*|_inf <= |r|_inf / (1 - q)."""
+    factor = _bound_factor(matrix, reflectance)
+    _check_contraction(factor)
+    radiosity = (emission if initial is None else initial).copy()
+    iterations = 0
+    while True:
+        residual = emission + reflectance * (matrix @ radiosity) - radiosity
+        scale = np.abs(radiosity).max()
+        error_bound = np.abs(residual).max() / (1 - factor) / scale if scale > 0 else 0.0
+        if error_bound <= tolerance or iterations >= max_iterations:
+            break
+        report(effort(error_bound, tolerance), f"{name} {iterations}, error bound {error_bound:.2g}")
+        radiosity = sweep(radiosity, residual)
+        iterations += 1
+    return radiosity, {"iterations": iterations, "converged": bool(error_bound <= tolerance),
+                       "residual": float(np.abs(residual).max()), "error_bound": float(error_bound)}

@@ -1,0 +1,213 @@
+"""The solve stage: the chosen solver on the patches, level after level of adaptive refinement
+(``mesh.refine``), then Monte Carlo for what the shots left (``montecarlo``); the light arriving
+at the receiver nodes comes with it."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..mesh import refine
+from ..reconstruct import estimate
+from ..rays.visibility import Visibility
+from ..transport.arriving import ArrivingLight
+from ..util.progress import Stages
+from . import iterative, montecarlo
+from .progressive import ShootingState, progressive
+
+# A level that will be refined stops at this times the tolerance (no looser than 0.1).
+COARSE_TOLERANCE = 10
+# With Monte Carlo, the share of the stage's progress the shots take.
+SHOTS_SHARE = 0.5
+
+
+@dataclass
+class Solution:
+    """The solve stage's result, on its last level's patches.
+
+    light : the ArrivingLight over those patches (its ``mesh`` and ``engine``).
+    radiosity : (P, C) of the patches.
+    node_lighting : (N, C) the light G arriving at the receiver nodes.
+    noise : (N, C) the standard error of ``node_lighting`` where Monte Carlo carried light, or None.
+    level_change : the discretisation estimate from the last refinement level (``estimate``), or None.
+    stats : the solver's statistics (shots or iterations, ...), with "refinements" and "monte_carlo".
+    extra_bytes : the solver's own memory beyond the patches' arrays (cached columns, a matrix).
+    """
+
+    light: ArrivingLight
+    radiosity: np.ndarray
+    node_lighting: np.ndarray
+    noise: np.ndarray | None
+    level_change: float | None
+    stats: dict = field(default_factory=dict)
+    extra_bytes: int = 0
+
+
+def solve(light: ArrivingLight, patch_direct: np.ndarray, node_direct: np.ndarray, settings,
+          stages: Stages) -> Solution:
+    """Solve on ``light``'s patches, whose mean direct light is ``patch_direct`` (P, C) (a lit
+    patch starts out as if it emitted what it reflects of it), with ``node_direct`` (N, C) at
+    the nodes; ``settings`` a resolved BakeSettings. Each of ``settings.refinement_levels``
+    levels splits the patches where radiosity jumps and goes on from where the last one was."""
+    solver = _Levels(light, settings, node_direct)
+    levels = settings.refinement_levels
+    monte_carlo = settings.solver == "progressive" and bool(settings.monte_carlo_rays)
+    shots = (0.0, SHOTS_SHARE if monte_carlo else 1.0)
+    previous_colors, change, refinements = None, None, []
+    for number in range(levels + 1):
+        share = (shots[1] - shots[0]) / (1 + levels)
+        with stages.within((shots[0] + number * share, shots[0] + (number + 1) * share)):
+            if number > 0:
+                chosen = refine.to_split(light.mesh, radiosity, colors, math.radians(settings.crease_angle),
+                                         settings.refinement_threshold)
+                if len(chosen) == 0:
+                    break
+                light, patch_direct = stages.run(f"refining {number} of {levels}", (0.0, 0.05), solver.refine,
+                                                 chosen, patch_direct, timer="refine")
+                refinements.append({"split": int(len(chosen)), "patches": light.mesh.patch_count})
+            # a level to be refined needs only roughly where light changes: it stops COARSE_TOLERANCE
+            # looser (but no looser than 0.1, or than the tolerance itself)
+            tolerance = settings.tolerance
+            if number < levels:
+                tolerance = max(tolerance, min(tolerance * COARSE_TOLERANCE, 0.1))
+            with stages.within((0.05 if number else 0.0, 1.0)):
+                radiosity, node_lighting = solver.solve(light.mesh.patch_radiosity(patch_direct), tolerance, stages)
+        colors = light.mesh.node_radiosity(node_lighting)
+        change = None if previous_colors is None else estimate.level_change(light.mesh, colors, previous_colors)
+        previous_colors = colors
+    noise = None
+    if monte_carlo and not solver.stats["converged"]:
+        with stages.within((SHOTS_SHARE, 1.0)):
+            radiosity, node_lighting, noise = solver.monte_carlo(stages)
+    return Solution(solver.light, radiosity, node_lighting, noise, change,
+                    solver.stats | {"refinements": refinements}, solver.extra_bytes)
+
+
+class _Levels:
+    """The solve of one discretisation, and how it goes on after the patches are refined:
+    progressive refinement resumes its ShootingState, the refined patches' light corrected by a
+    gather at their own receiving points; Jacobi and Gauss-Seidel start from the refined
+    patches' inherited radiosity."""
+
+    def __init__(self, light: ArrivingLight, settings, node_direct: np.ndarray) -> None:
+        self.light, self.settings = light, settings
+        self.channels, self.node_direct = light.channels, node_direct
+        self.state: ShootingState | None = None
+        self.radiosity: np.ndarray | None = None  # the explicit solvers' last answer
+        self.stats: dict = {}
+        self.extra_bytes = 0
+
+    def refine(self, chosen: np.ndarray, patch_direct: np.ndarray, report) -> tuple[ArrivingLight, np.ndarray]:
+        """Split the patches ``chosen`` (``refine.split``) and move the solve onto them; returns
+        the light over the new patches and their mean direct light, inherited, then measured again
+        on the new children."""
+        mesh, origin = refine.split(self.light.mesh, chosen)
+        self.light = light = self.light.refined(self.light.engine.refined(mesh))
+        new = refine.children(origin, len(patch_direct))
+        patch_direct = patch_direct[origin]
+        if light.has_direct:
+            patch_direct[new] = light.on_patches(new)
+        sources = mesh.patch_radiosity(patch_direct)
+        if self.state is not None:
+            state = self.state
+            patch_count = len(state.unshot)
+            inherited = state.radiosity[:patch_count][origin]
+            # what the new patches have received is what was shot, B - U: the unshot rest reaches
+            # them when it is shot (or carried by montecarlo), not now as well
+            shot = (state.radiosity[:patch_count] - state.unshot)[origin]
+            gathered = light.gathered(light.engine.receiving_points[new], mesh.patch_normals[new], shot, report)
+            corrected = sources[new] + mesh.patch_reflectance[new, : self.channels] * gathered
+            unshot = state.unshot[origin]
+            unshot[new] += corrected - inherited[new]
+            radiosity = inherited.copy()
+            radiosity[new] = corrected
+            self.state = ShootingState(np.concatenate([radiosity, state.radiosity[patch_count:]]), unshot,
+                                       state.shots, state.power_shot, state.power_captured)
+        else:
+            self.radiosity = self.radiosity[origin]
+        return light, patch_direct
+
+    def solve(self, sources: np.ndarray, tolerance: float, stages: Stages) -> tuple[np.ndarray, np.ndarray]:
+        """Patch radiosity (P, C) and the light G arriving at the nodes (N, C), for the patches'
+        own light ``sources`` (P, C)."""
+        if self.settings.solver != "progressive":
+            radiosity = stages.run("form factors", (0.0, 0.35), self._matrix, timer="form_factors")
+            radiosity = stages.run("solving", (0.35, 0.7), self._iterate, radiosity, sources, tolerance, timer="solve")
+            return radiosity, stages.run("gathering at vertices", (0.7, 1.0), self._gather, radiosity, timer="gather")
+        nodes_receive = self.light.engine.method == "raycast"  # the hemicube gathers at them afterwards
+        radiosity, node_lighting = stages.run("shooting", (0.0, 1.0 if nodes_receive else 0.8), self._shoot,
+                                              sources, tolerance, nodes_receive, timer="solve")
+        if not nodes_receive:
+            node_lighting = stages.run("gathering at vertices", (0.8, 1.0), self._gather, radiosity, timer="gather")
+        return radiosity, node_lighting
+
+    def _shoot(self, sources, tolerance: float, nodes_receive: bool, report):
+        engine, settings, channels = self.light.engine, self.settings, self.channels
+        mesh = engine.mesh
+        if self.state is None:
+            self.state = ShootingState.start(sources, self.node_direct if nodes_receive else np.zeros((0, channels)))
+        max_shots, first = settings.max_shots, None
+        if settings.monte_carlo_rays:  # the emitters shoot, then the rest is left to montecarlo
+            max_shots, first = max_shots or 0, mesh.patch_emission.any(axis=1)
+        radiosity, node_lighting, stats = progressive(
+            engine.shooting_columns, mesh.patch_areas, mesh.patch_reflectance[:, :channels], sources,
+            np.ones_like(self.node_direct) if nodes_receive else None,
+            self.node_direct if nodes_receive else None,
+            tolerance=tolerance, ambient=settings.ambient, max_shots=max_shots,
+            cache_bytes=settings.column_cache, report=report, state=self.state, first=first,
+        )
+        self.extra_bytes = max(self.extra_bytes, stats["cached_columns"] * 8 * (mesh.patch_count + mesh.node_count))
+        self.stats = stats
+        return radiosity, node_lighting
+
+    def _matrix(self, report) -> np.ndarray:
+        """The P x P form-factor matrix, refused when it would not fit the memory budget."""
+        mesh, settings = self.light.mesh, self.settings
+        matrix_bytes = 8 * mesh.patch_count**2
+        if matrix_bytes > settings.memory_budget:
+            raise ValueError(
+                f"the {settings.solver} solver needs a {mesh.patch_count:,} x {mesh.patch_count:,} form-factor "
+                f"matrix ({matrix_bytes / 2**30:.2f} GiB), over the memory budget of "
+                f"{settings.memory_budget / 2**30:.2f} GiB; "
+                "use solver='progressive', a larger patch_size, fewer refinement_levels, or raise memory_budget"
+            )
+        self.extra_bytes = max(self.extra_bytes, matrix_bytes)
+        return self.light.engine.patch_rows(np.arange(mesh.patch_count), lambda f: report(f, "matrix"))
+
+    def _iterate(self, matrix: np.ndarray, sources: np.ndarray, tolerance: float, report) -> np.ndarray:
+        """Jacobi or Gauss-Seidel on ``matrix``, from the last level's answer if there was one."""
+        settings = self.settings
+        iterate = iterative.jacobi if settings.solver == "jacobi" else iterative.gauss_seidel
+        radiosity, self.stats = iterate(matrix, self.light.mesh.patch_reflectance[:, : self.channels], sources,
+                                        tolerance, settings.max_iterations, report, self.radiosity)
+        self.radiosity = radiosity
+        return radiosity
+
+    def _gather(self, radiosity: np.ndarray, report) -> np.ndarray:
+        mesh = self.light.mesh
+        return self.node_direct + self.light.gathered(mesh.node_points, mesh.node_normals, radiosity, report)
+
+    def monte_carlo(self, stages: Stages):
+        """Patch radiosity (P, C), the light arriving at the nodes (N, C) and its standard error
+        (N, C; None with the hemicube): the shots so far, plus what the light left unshot adds with
+        all its bounces, X = U + rho F X, by particle tracing on the patches and a final gather at
+        the nodes (``montecarlo``; with the hemicube, the nodes gather the result by hemicube)."""
+        engine, settings, state = self.light.engine, self.settings, self.state
+        mesh = engine.mesh
+        visibility = engine.visibility
+        if len(visibility.triangle_normals) != mesh.front_patch_count:  # refined: the rays' triangles must be the patches
+            visibility = Visibility(mesh.patch_corners[: mesh.front_patch_count], two_sided=mesh.back_of_front >= 0,
+                                    owners=mesh.patch_triangle[: mesh.front_patch_count])
+        particles = int(mesh.patch_count * settings.monte_carlo_rays * montecarlo.PARTICLES_PER_RAY)
+        future = stages.run("tracing particles", (0.0, 0.5), montecarlo.trace, mesh, visibility, state.unshot,
+                            mesh.patch_reflectance[:, : self.channels], particles, settings.seed, timer="monte_carlo")
+        radiosity = state.radiosity[: mesh.patch_count] - state.unshot + future
+        self.stats["monte_carlo"] = {"particles": particles, "gather_rays": settings.monte_carlo_rays}
+        if engine.method == "hemicube":  # the estimate keeps the unshot light's bound
+            return radiosity, stages.run("gathering at vertices", (0.5, 1.0), self._gather, radiosity,
+                                         timer="gather"), None
+        gathered = stages.run("final gather", (0.5, 1.0), montecarlo.gather, mesh, visibility, mesh.node_points,
+                              mesh.node_normals, future, settings.monte_carlo_rays, settings.seed, timer="monte_carlo")
+        return radiosity, state.radiosity[mesh.patch_count:] + gathered.light, gathered.standard_error

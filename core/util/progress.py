@@ -1,0 +1,118 @@
+"""Progress, cancellation and timing shared by every stage of a bake."""
+
+from __future__ import annotations
+
+import math
+import time
+from contextlib import contextmanager
+from typing import Callable, Iterator, TypeVar
+
+ProgressCallback = Callable[[float, str], "bool | None"]
+Report = Callable[..., None]  # report(fraction of the stage done, detail="")
+Result = TypeVar("Result")
+
+# The caller hears from a bake at least this often while it works (the contract is 0.2 s).
+REPORT_INTERVAL = 0.1
+
+
+class BakeCancelled(Exception):
+    """Raised by ``bake`` when the progress callback returned False; nothing was produced."""
+
+
+def quiet(_fraction: float, _detail: str = "") -> None:
+    """A ``Report`` that tells nobody."""
+
+
+def effort(fraction_left: float, tolerance: float) -> float:
+    """Progress 0..1 of an iteration as the (log of the) remaining fraction falls from 1 to the
+    tolerance."""
+    if fraction_left <= tolerance:
+        return 1.0
+    return min(max(math.log(fraction_left) / math.log(tolerance), 0.0), 1.0)
+
+
+def spans(shares: dict[str, float]) -> dict[str, tuple[float, float]]:
+    """Consecutive (start, end) parts of 0..1 in proportion to ``shares``, in their order."""
+    total, start, result = sum(shares.values()), 0.0, {}
+    for name, share in shares.items():
+        result[name] = (start / total, (start + share) / total)
+        start += share
+    return result
+
+
+class Progress:
+    """Maps each stage's own 0..1 progress into the bake's overall fraction and calls the user's
+    callback at most every REPORT_INTERVAL seconds (always at stage boundaries)."""
+
+    def __init__(self, callback: ProgressCallback | None) -> None:
+        self._callback = callback
+        self._last = time.perf_counter()
+        self._start, self._span, self._stage = 0.0, 1.0, ""
+
+    def stage(self, name: str, start: float, end: float) -> None:
+        self._start, self._span, self._stage = start, end - start, name
+        self.report(0.0, force=True)
+
+    def report(self, fraction: float, detail: str = "", force: bool = False) -> None:
+        """Tell the caller where the current stage is; raise BakeCancelled if it says stop."""
+        if self._callback is None:
+            return
+        now = time.perf_counter()
+        if not force and now - self._last < REPORT_INTERVAL:
+            return
+        self._last = now
+        message = f"{self._stage}: {detail}" if detail else self._stage
+        overall = self._start + self._span * min(max(fraction, 0.0), 1.0)
+        if self._callback(overall, message) is False:
+            raise BakeCancelled(f"cancelled during {self._stage}")
+
+
+class Stages:
+    """Runs the stages of a bake: each in its span of the progress bar, named in the messages,
+    and timed into ``seconds`` (each key's time excludes the stages run inside it, so the
+    values add up to the whole)."""
+
+    def __init__(self, callback: ProgressCallback | None) -> None:
+        self.progress = Progress(callback)
+        self.seconds: dict[str, float] = {}
+        self._open: list[list] = []  # per running stage: [start, end, seconds of its inner stages]
+
+    def run(self, name: str, span: tuple[float, float], function: Callable[..., Result], *args,
+            timer: str | None = None) -> Result:
+        """``function(*args, report)`` as the stage ``name``: ``span`` (start, end) is its part of
+        the enclosing stage's progress (of the whole bake at the top level); its seconds add to
+        ``seconds[timer or name]``."""
+        start, end = self._part(span)
+        self._open.append([start, end, 0.0])
+        self.progress.stage(name, start, end)
+        clock = time.perf_counter()
+        try:
+            return function(*args, self.progress.report)
+        finally:
+            elapsed = time.perf_counter() - clock
+            inner = self._open.pop()[2]
+            key = timer or name
+            self.seconds[key] = self.seconds.get(key, 0.0) + elapsed - inner
+            if self._open:
+                self._open[-1][2] += elapsed
+
+    @contextmanager
+    def within(self, span: tuple[float, float]) -> Iterator[None]:
+        """Stages run inside share ``span`` of the enclosing stage's progress, as ``run``'s would,
+        each named and timed on its own."""
+        self._open.append([*self._part(span), 0.0])
+        try:
+            yield
+        finally:
+            inner = self._open.pop()[2]
+            if self._open:
+                self._open[-1][2] += inner
+
+    def _part(self, span: tuple[float, float]) -> tuple[float, float]:
+        """``span`` of the enclosing stage's progress, as fractions of the whole bake."""
+        low, high = (self._open[-1][0], self._open[-1][1]) if self._open else (0.0, 1.0)
+        return low + span[0] * (high - low), low + span[1] * (high - low)
+
+    def done(self) -> None:
+        """The bake has finished: the caller hears 1.0."""
+        self.progress.stage("done", 1.0, 1.0)
