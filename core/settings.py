@@ -21,7 +21,7 @@ class Knob:
     "low", "high" or "both"); ``square``: a perfect square (one ray per stratum; 0 too where
     ``low`` is 0); ``even``: an even number; ``none``: the word that stands for None on command
     lines ("auto", "none") where None is allowed, and ``none_means`` what it means;
-    ``command_line``: offered by both command lines (the others are for scripts and tests)."""
+    ``exposed``: offered on both command lines and in Blender (the others only to scripts)."""
 
     name: str
     type: type
@@ -36,7 +36,7 @@ class Knob:
     even: bool = False
     none: str = ""
     none_means: str = ""
-    command_line: bool = True
+    exposed: bool = True
 
     @property
     def flag(self) -> str:
@@ -124,17 +124,17 @@ KNOBS: tuple[Knob, ...] = (
          "goes on", "levels", low=0, high=8),
     Knob("refinement_threshold", float, 0.25, "A patch is split when its radiosity differs from a neighbour's by "
          "more than this share of the mean radiosity of the surfaces that do not emit", low=0, open="low",
-         command_line=False),
+         exposed=False),
     Knob("near_field", bool, True, "Read the patches next to each vertex from their linear interpolants, not "
-         "their means (the vertices along concave edges and contact lines)", command_line=False),
+         "their means (the vertices along concave edges and contact lines)", exposed=False),
     Knob("probe_rays", bool, True, "Ray casting: cast a quarter of each form factor's rays first and the rest only "
-         "where they disagree: about half the time, shadows a little less exact", command_line=False),
+         "where they disagree: about half the time, shadows a little less exact", exposed=False),
     Knob("max_iterations", int, 100_000, "Jacobi and Gauss-Seidel stop after this many sweeps", "sweeps", low=0,
-         command_line=False),
+         exposed=False),
     Knob("memory_budget", int, 2 << 30, "Bytes the explicit matrix of Jacobi and Gauss-Seidel may take", "bytes",
-         low=0, command_line=False),
+         low=0, exposed=False),
     Knob("column_cache", int, 1 << 30, "Bytes of form-factor columns progressive refinement may keep for "
-         "reshooting", "bytes", low=0, command_line=False),
+         "reshooting", "bytes", low=0, exposed=False),
     Knob("seed", int, 0, "Fixes the positions of every ray sample: the same seed gives the same bake", low=0),
 )
 KNOB = {knob.name: knob for knob in KNOBS}
@@ -198,6 +198,7 @@ class Preset(NamedTuple):
     rays_per_form_factor: int
     tolerance: float
     refinement_levels: int = 0
+    hemicube_resolution: int = 64
 
 
 # Chosen from the Pareto fronts of docs/results/tradeoffs.md (bench sweep): the patch size is what
@@ -212,7 +213,7 @@ PRESETS: dict[str, Preset] = {
                         "bakes against", 16, 16, 1e-4),
 }
 # The knobs a preset sets (the others keep their own values).
-PRESET_KNOBS = ("patch_size", "rays_per_form_factor", "tolerance", "refinement_levels")
+PRESET_KNOBS = ("patch_size", "rays_per_form_factor", "hemicube_resolution", "tolerance", "refinement_levels")
 
 
 def preset_knobs(name: str, extent: float) -> dict:
@@ -223,6 +224,7 @@ def preset_knobs(name: str, extent: float) -> dict:
     return {
         "patch_size": extent / preset.patch_divisions,
         "rays_per_form_factor": preset.rays_per_form_factor,
+        "hemicube_resolution": preset.hemicube_resolution,
         "tolerance": preset.tolerance,
         "refinement_levels": preset.refinement_levels,
     }
@@ -234,7 +236,7 @@ def add_knob_options(parser: argparse.ArgumentParser) -> None:
     word for None) passes None on purpose, as ``NONE``."""
     group = parser.add_argument_group("knobs (docs: README, 'Knobs')")
     for knob in KNOBS:
-        if not knob.command_line:
+        if not knob.exposed:
             continue
         help_text = f"{knob.description}; {knob.rule()}"
         if knob.none:
@@ -286,7 +288,7 @@ def given_knobs(arguments: argparse.Namespace) -> dict:
     given = {}
     for knob in KNOBS:
         value = getattr(arguments, knob.name, None)
-        if knob.command_line and value is not None:
+        if knob.exposed and value is not None:
             given[knob.name] = None if value is NONE else value
     return given
 

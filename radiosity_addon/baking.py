@@ -20,15 +20,13 @@ class Prepared:
     """A bake ready to run: the extracted scene and the core's arguments."""
 
     extraction: Extraction
-    method: str
-    solver: str
     knobs: dict
     attribute: str
     lighting_only: bool
     copy_changed: bool
 
     def job(self) -> BakeJob:
-        return BakeJob(self.extraction.scene, self.method, self.solver, **self.knobs)
+        return BakeJob(self.extraction.scene, **self.knobs)
 
 
 @dataclass
@@ -45,12 +43,12 @@ def prepare(scene, depsgraph) -> Prepared:
     if not attribute:
         raise ValueError("the output attribute name is empty")
     extraction = extract(depsgraph, settings.two_sided, shading_normals=settings.vertex_normals == "SHADING")
-    method, solver, knobs = settings.core_arguments(extraction.scene.extent, len(extraction.scene.triangles))
+    knobs = settings.core_arguments(extraction.scene.extent)
     if default_backend() != "embree":
         extraction.notes.append("Embree is not available here: rays are traced by the slower NumPy ray caster")
     # fail early, before any work, on targets that cannot be written
     plan(extraction.targets, attribute, settings.modified_topology == "COPY")
-    return Prepared(extraction, method, solver, knobs, attribute, settings.output == "LIGHTING",
+    return Prepared(extraction, knobs, attribute, settings.output == "LIGHTING",
                     settings.modified_topology == "COPY")
 
 
@@ -64,7 +62,7 @@ def run_straight(prepared: Prepared, echo: bool = True):
             print(f"radiosity: {100 * fraction:5.1f}%  {message}", file=sys.stderr, flush=True)
 
     extraction = prepared.extraction
-    return bake(extraction.scene, prepared.method, prepared.solver, progress=progress, **prepared.knobs)
+    return bake(extraction.scene, progress=progress, **prepared.knobs)
 
 
 def finish(prepared: Prepared, result, depsgraph) -> Outcome:

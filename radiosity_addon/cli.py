@@ -15,7 +15,7 @@ import traceback
 
 import bpy
 
-from ..core.settings import PRESETS
+from ..core.settings import KNOB, PRESET_KNOBS, PRESETS, add_knob_options, given_knobs
 from .baking import Outcome, finish, prepare, run_straight
 from .preview import render_colours
 
@@ -37,24 +37,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-o", "--output", metavar="FILE.blend", help="save the baked file here")
     parser.add_argument("--overwrite", action="store_true", help="save the baked file over the input file")
     parser.add_argument("--render", metavar="FILE.png", help="also render the baked colours from the scene's camera")
-    parser.add_argument("--preset", choices=[p.lower() for p in PRESETS] + ["custom"])
-    parser.add_argument("--method", choices=["raycast", "hemicube"])
-    parser.add_argument("--solver", choices=["progressive", "jacobi", "gauss_seidel"])
-    parser.add_argument("--patch-size", type=float, metavar="LENGTH", help="(sets --preset custom)")
-    parser.add_argument("--rays", type=int, help="rays per form factor: 1, 4, 9, 16, 36, 64, 144 or 256 "
-                        "(sets --preset custom)")
-    parser.add_argument("--resolution", type=int, help="hemicube resolution (sets --preset custom)")
-    parser.add_argument("--tolerance", type=float, help="(sets --preset custom)")
-    parser.add_argument("--max-shots", type=int, metavar="N", help="progressive: stop after N shots, the rest as the "
-                        "ambient term or by Monte Carlo (0: until the tolerance is met; with Monte Carlo, once "
-                        "every emitter has shot)")
-    parser.add_argument("--monte-carlo-rays", metavar="N", help="progressive: carry the light not yet shot by "
-                        "Monte Carlo with N final-gather rays per vertex: 16, 64, 256 or 1024 (0: the ambient "
-                        "term; auto: 64 for large scenes, the default)")
+    parser.add_argument("--preset", choices=[p.lower() for p in PRESETS] + ["custom"],
+                        help=f"sets {', '.join(PRESET_KNOBS)}; setting one of them makes the preset custom")
     parser.add_argument("--lighting-only", action="store_true", help="write the lighting, not the full radiosity")
     parser.add_argument("--attribute", metavar="NAME", help="colour attribute to write (default: the file's, "
                         "'Radiosity' when unset)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    add_knob_options(parser)
     return parser
 
 
@@ -62,7 +51,8 @@ def main(argv: list[str]) -> int:
     """The ``-c radiosity`` command: 0 on success, 2 on bad arguments or input, 1 otherwise."""
     try:
         options = build_parser().parse_args(argv)
-        outcome = run(**vars(options))
+        own = {name: value for name, value in vars(options).items() if name not in KNOB}
+        outcome = run(**own, knobs=given_knobs(options))
     except (UsageError, ValueError) as error:
         print(f"{COMMAND}: error: {error}", file=sys.stderr)
         return 2
@@ -77,13 +67,12 @@ def main(argv: list[str]) -> int:
 
 
 def run(input: str | None = None, output: str | None = None, overwrite: bool = False, render: str | None = None,
-        preset: str | None = None, method: str | None = None, solver: str | None = None,
-        patch_size: float | None = None, rays: int | None = None, resolution: int | None = None,
-        tolerance: float | None = None, max_shots: int | None = None, monte_carlo_rays: str | None = None,
-        lighting_only: bool = False, attribute: str | None = None, quiet: bool = True) -> Outcome:
-    """Bake the open (or ``input``) file's scene, then save it to ``output`` (or over itself
-    with ``overwrite``) and render the colours to ``render``. ValueError for bad input; the
-    open file is not saved anywhere unless asked."""
+        preset: str | None = None, lighting_only: bool = False, attribute: str | None = None, quiet: bool = True,
+        knobs: dict | None = None) -> Outcome:
+    """Bake the open (or ``input``) file's scene, with ``knobs`` (core knob names: None for
+    auto or no limit) over its settings, then save it to ``output`` (or over itself with
+    ``overwrite``) and render the colours to ``render``. ValueError for bad input; the open file
+    is not saved anywhere unless asked."""
     if input is not None:
         if not os.path.isfile(input):
             raise UsageError(f"no such file: {input}")
@@ -91,8 +80,7 @@ def run(input: str | None = None, output: str | None = None, overwrite: bool = F
     source = bpy.data.filepath
     target = _target(source, output, overwrite, render)
     scene = bpy.context.scene
-    _apply(scene.radiosity, preset, method, solver, patch_size, rays, resolution, tolerance, max_shots,
-           monte_carlo_rays, lighting_only, attribute)
+    _apply(scene.radiosity, preset, knobs or {}, lighting_only, attribute)
     depsgraph = bpy.context.evaluated_depsgraph_get()
     prepared = prepare(scene, depsgraph)
     result = run_straight(prepared, echo=not quiet)
@@ -126,50 +114,24 @@ def _target(source: str, output: str | None, overwrite: bool, render: str | None
     return output
 
 
-def _apply(settings, preset, method, solver, patch_size, rays, resolution, tolerance, max_shots, monte_carlo_rays,
-           lighting_only, attribute):
+def _apply(settings, preset: str | None, knobs: dict, lighting_only: bool, attribute: str | None) -> None:
     """Command-line options onto ``scene.radiosity`` (so the saved file records them)."""
-    if patch_size is not None and not patch_size > 0:
-        raise UsageError(f"--patch-size must be a positive length, got {patch_size}")
-    if tolerance is not None and not 0 < tolerance < 0.5:
-        raise UsageError(f"--tolerance must be in (0, 0.5), got {tolerance}")
-    if resolution is not None and (resolution < 2 or resolution % 2):
-        raise UsageError(f"--resolution must be an even number of pixels >= 2, got {resolution}")
-    knobs = {"patch_size": patch_size, "hemicube_resolution": resolution, "tolerance": tolerance}
     if preset is not None:
         settings.preset = preset.upper()
-    if any(value is not None for value in (patch_size, rays, resolution, tolerance)):
+    preset_set = [name for name in knobs if name in PRESET_KNOBS]
+    if preset_set:
         if preset not in (None, "custom"):
-            raise UsageError(f"--preset {preset} fixes the knobs: leave it out, or use --preset custom")
+            raise UsageError(f"--preset {preset} fixes {KNOB[preset_set[0]].flag}: leave it out, or use --preset custom")
         settings.preset = "CUSTOM"
     for name, value in knobs.items():
-        if value is not None:
-            setattr(settings, name, value)
-    if rays is not None:
-        _set_choice(settings, "rays", rays, "--rays")
-    if max_shots is not None:
-        if max_shots < 0:
-            raise UsageError(f"--max-shots must be 0 (no limit) or more, got {max_shots}")
-        settings.max_shots = max_shots
-    if monte_carlo_rays is not None:
-        _set_choice(settings, "monte_carlo_rays", monte_carlo_rays, "--monte-carlo-rays")
-    if method is not None:
-        settings.method = method
-    if solver is not None:
-        settings.solver = solver
+        try:
+            settings.set_knob(name, value)
+        except ValueError as error:
+            raise UsageError(str(error)) from None
     if lighting_only:
         settings.output = "LIGHTING"
     if attribute is not None:
         settings.attribute_name = attribute
-
-
-def _set_choice(settings, name: str, value, option: str) -> None:
-    """Set the enum ``name`` to ``value`` (a number or a name, in any case), or say which values
-    ``option`` takes."""
-    choices = [item.identifier for item in settings.bl_rna.properties[name].enum_items]
-    if str(value).upper() not in choices:
-        raise UsageError(f"{option} must be one of {', '.join(c.lower() for c in choices)}, got {value}")
-    setattr(settings, name, str(value).upper())
 
 
 _handle = None

@@ -14,15 +14,15 @@ def draw_settings(layout, settings) -> None:
     layout.prop(settings, "preset")
     if settings.preset == "CUSTOM":
         layout.prop(settings, "patch_size")
-        layout.prop(settings, "rays" if settings.method == "raycast" else "hemicube_resolution")
+        layout.prop(settings, "rays_per_form_factor" if settings.method == "raycast" else "hemicube_resolution")
         layout.prop(settings, "tolerance")
         layout.prop(settings, "refinement_levels")
     else:
         preset = PRESETS[settings.preset]
         column = layout.column(align=True)
         column.active = False
-        for sentence in preset.description.split(". "):  # the measured time and error on a line of their own
-            column.label(text=sentence)
+        for part in preset.description.split(": "):  # what it is, then what it is for, on a line each
+            column.label(text=part)
     layout.prop(settings, "output")
     layout.prop(settings, "attribute_name")
     row = layout.row(align=True)
@@ -41,7 +41,11 @@ def draw_advanced(layout, settings) -> None:
     layout.prop(settings, "solver")
     column = layout.column()
     column.active = settings.solver == "progressive"
-    column.prop(settings, "max_shots")
+    row = column.row(heading="Limit Shots")
+    row.prop(settings, "use_max_shots", text="")
+    sub = row.row()
+    sub.active = settings.use_max_shots
+    sub.prop(settings, "max_shots", text="")
     column.prop(settings, "monte_carlo_rays")
     layout.prop(settings, "ambient")
     layout.prop(settings, "merge_flat")
@@ -51,6 +55,7 @@ def draw_advanced(layout, settings) -> None:
     row.active = settings.vertex_normals == "CREASE"
     row.prop(settings, "crease_angle")
     layout.prop(settings, "modified_topology")
+    layout.prop(settings, "seed")
 
 
 class _InRenderProperties:

@@ -1,5 +1,7 @@
 """``scene.radiosity``: the bake settings, saved in the .blend so a batch bake reproduces the
-UI bake. Names are stable: scripts and farms set them."""
+UI bake. The knobs take their names, tooltips, defaults and bounds from the core's knob table
+(``core.settings.KNOBS``), so they read the same here, on both command lines and in scripts;
+the rest (preset, output, attribute, how the scene is read) are the add-on's own."""
 
 from __future__ import annotations
 
@@ -7,24 +9,35 @@ import math
 
 import bpy
 
-from ..core.settings import (
-    LARGE_SCENE_MONTE_CARLO_RAYS, LARGE_SCENE_TRIANGLES, PRESETS, auto_monte_carlo_rays, preset_knobs,
-)
+from ..core.settings import KNOB, PRESETS, preset_knobs
 
 DEFAULT_ATTRIBUTE = "Radiosity"
 
 PRESET_ITEMS = [(key, preset.label, preset.description) for key, preset in PRESETS.items()] + [
     ("CUSTOM", "Custom", "The knobs below"),
 ]
-RAY_ITEMS = [(str(n), str(n), f"{n} visibility rays per form factor") for n in (1, 4, 9, 16, 36, 64, 144, 256)]
+RAYS = (1, 4, 9, 16, 36, 64, 144, 256)
 MONTE_CARLO_RAYS = (16, 64, 256, 1024)
-MONTE_CARLO_ITEMS = [
-    ("AUTO", "Auto", f"{LARGE_SCENE_MONTE_CARLO_RAYS} rays from {LARGE_SCENE_TRIANGLES:,} triangles on (a large "
-     "scene would take hours to shoot to the tolerance), off below"),
-    ("0", "Off", "The light not yet shot when the shots stop is added as the ambient term"),
-] + [
-    (str(n), str(n), f"{n} final-gather rays per vertex, {n // 16} particle(s) per patch") for n in MONTE_CARLO_RAYS
-]
+AUTO = "AUTO"  # the Monte Carlo enum's item for None
+
+
+def knob_property(name: str, label: str, none: str = "", **blender) -> dict:
+    """Keyword arguments of the bpy property of knob ``name``: its label, the table's tooltip
+    (ending with ``none``, what stands for None here), default and bounds; ``blender`` adds or
+    overrides (a subtype, a unit, items)."""
+    knob = KNOB[name]
+    arguments = {"name": label, "description": f"{knob.description}{'. ' + none if none else ''}"}
+    if knob.default is not None and not knob.choices:
+        arguments["default"] = knob.default
+    if "items" not in blender:  # an enum has no bounds
+        arguments |= {bound: value for bound, value in (("min", knob.low), ("max", knob.high)) if value is not None}
+    return arguments | blender
+
+
+def choice_items(name: str, labels: dict[str, tuple[str, str]]) -> list[tuple[str, str, str]]:
+    """EnumProperty items of a knob with choices: the table's values, each with its label and
+    tooltip from ``labels``."""
+    return [(value, *labels[value]) for value in KNOB[name].choices]
 
 
 class RadiositySettings(bpy.types.PropertyGroup):
@@ -45,66 +58,39 @@ class RadiositySettings(bpy.types.PropertyGroup):
         description="Colour attribute written on every baked mesh (Float Color, Face Corner); "
         "baking again replaces only this attribute",
     )
-    method: bpy.props.EnumProperty(
-        name="Form Factors",
-        items=[
-            ("raycast", "Ray Casting", "Exact point-to-patch form factors times ray-cast visibility"),
-            ("hemicube", "Hemicube", "The classic half-cube of pixels around each receiver"),
-        ],
-        default="raycast",
+    method: bpy.props.EnumProperty(**knob_property("method", "Form Factors", items=choice_items("method", {
+        "raycast": ("Ray Casting", "Exact point-to-patch form factors times ray-cast visibility"),
+        "hemicube": ("Hemicube", "The classic half-cube of pixels around each receiver"),
+    }), default=KNOB["method"].default))
+    solver: bpy.props.EnumProperty(**knob_property("solver", "Solver", items=choice_items("solver", {
+        "progressive": ("Progressive", "Shoot the brightest patch first; memory grows with the scene"),
+        "jacobi": ("Jacobi", "Iterate on the full matrix (small scenes)"),
+        "gauss_seidel": ("Gauss-Seidel", "Iterate on the full matrix, in place (small scenes)"),
+    }), default=KNOB["solver"].default))
+    patch_size: bpy.props.FloatProperty(**knob_property(
+        "patch_size", "Patch Size", "0: auto, the scene's extent / 8 (the Preview preset's)", default=0.0,
+        soft_max=10.0, subtype="DISTANCE", unit="LENGTH"))
+    rays_per_form_factor: bpy.props.EnumProperty(**knob_property(
+        "rays_per_form_factor", "Rays", items=[(str(n), str(n), f"{n} rays") for n in RAYS],
+        default=str(KNOB["rays_per_form_factor"].default)))
+    hemicube_resolution: bpy.props.IntProperty(**knob_property("hemicube_resolution", "Hemicube Resolution",
+                                                               soft_max=512, step=2))
+    tolerance: bpy.props.FloatProperty(**knob_property("tolerance", "Tolerance", min=1e-7, max=0.5, precision=5))
+    refinement_levels: bpy.props.IntProperty(**knob_property("refinement_levels", "Refinement Levels"))
+    use_max_shots: bpy.props.BoolProperty(
+        name="Limit Shots", default=False,
+        description="Progressive: stop after Max Shots; off: shoot until the tolerance is met (with Monte Carlo, "
+        "until every emitter has shot)",
     )
-    solver: bpy.props.EnumProperty(
-        name="Solver",
-        items=[
-            ("progressive", "Progressive", "Shoot the brightest patch first; memory grows with the scene"),
-            ("jacobi", "Jacobi", "Iterate on the full matrix (small scenes)"),
-            ("gauss_seidel", "Gauss-Seidel", "Iterate on the full matrix, in place (small scenes)"),
-        ],
-        default="progressive",
-    )
-    patch_size: bpy.props.FloatProperty(
-        name="Patch Size", default=0.0, min=0.0, soft_max=10.0, subtype="DISTANCE", unit="LENGTH",
-        description="Longest patch edge; 0 picks an eighth of the scene's size (the Preview preset's)",
-    )
-    rays: bpy.props.EnumProperty(name="Rays", items=RAY_ITEMS, default="16",
-                                 description="Visibility rays per form factor, area-light sample and sky point")
-    hemicube_resolution: bpy.props.IntProperty(
-        name="Hemicube Resolution", default=64, min=2, soft_max=512, step=2,
-        description="Pixels across the hemicube's top face (even)",
-    )
-    tolerance: bpy.props.FloatProperty(
-        name="Tolerance", default=1e-3, min=1e-7, max=0.5, precision=5,
-        description="Stop when this share of the light is still to be distributed",
-    )
-    refinement_levels: bpy.props.IntProperty(
-        name="Refinement Levels", default=0, min=0, max=4,
-        description="Split patches where light changes fast this many times, re-solving after each; "
-        "the error estimate follows the refined patches",
-    )
-    max_shots: bpy.props.IntProperty(
-        name="Max Shots", default=0, min=0, soft_max=100_000,
-        description="Progressive: stop after this many shots, the light not yet shot added as the ambient term "
-        "or carried by Monte Carlo (0: shoot until the tolerance is met; with Monte Carlo, until every "
-        "emitter has shot). For large scenes, where converging takes hours: the report's estimated error "
-        "says how much was left",
-    )
-    monte_carlo_rays: bpy.props.EnumProperty(
-        name="Monte Carlo", items=MONTE_CARLO_ITEMS, default="AUTO",
-        description="Progressive: when the shots stop, carry the light not yet shot, with all its bounces, "
-        "by particles from the patches and a final gather of this many rays at each vertex, instead of "
-        "the ambient term. The emitters shoot first, so direct light and shadows stay exact. For large "
-        "scenes (Sponza: 52 % -> 12 % from Cycles); a little noise, which the estimated error includes",
-    )
-    ambient: bpy.props.BoolProperty(
-        name="Ambient Term", default=True,
-        description="Add an estimate of the light not yet shot (progressive only)",
-    )
-    merge_flat: bpy.props.BoolProperty(
-        name="Merge Flat Surfaces", default=True,
-        description="Solve finely tessellated flat surfaces on panels up to the patch size, not triangle by "
-        "triangle (a 40 x 40 grid wall costs about what a plain one does); colours are still evaluated at "
-        "every vertex. Off: every triangle is at least one patch",
-    )
+    max_shots: bpy.props.IntProperty(**knob_property("max_shots", "Max Shots", default=1000, soft_max=100_000))
+    monte_carlo_rays: bpy.props.EnumProperty(**knob_property(
+        "monte_carlo_rays", "Monte Carlo", items=[
+            (AUTO, "Auto", KNOB["monte_carlo_rays"].none_means),
+            ("0", "Off", "The light not yet shot when the shots stop is added as the ambient term"),
+        ] + [(str(n), str(n), f"{n} final-gather rays per vertex") for n in MONTE_CARLO_RAYS], default=AUTO))
+    ambient: bpy.props.BoolProperty(**knob_property("ambient", "Ambient Term"))
+    merge_flat: bpy.props.BoolProperty(**knob_property("merge_flat", "Merge Flat Surfaces"))
+    seed: bpy.props.IntProperty(**knob_property("seed", "Seed"))
     two_sided: bpy.props.BoolProperty(
         name="Two-Sided Surfaces", default=True,
         description="Surfaces reflect and emit on both sides, as in Cycles (but a wall with the whole scene "
@@ -121,10 +107,9 @@ class RadiositySettings(bpy.types.PropertyGroup):
         default="SHADING",
         description="Where neighbouring faces share a vertex colour and which way it faces",
     )
-    crease_angle: bpy.props.FloatProperty(
-        name="Crease Angle", default=0.5235987755982988, min=0.0, max=3.141592653589793, subtype="ANGLE",
-        description="Crease Angle mode: faces meeting at a sharper angle do not share a vertex colour",
-    )
+    crease_angle: bpy.props.FloatProperty(**knob_property(
+        "crease_angle", "Crease Angle", "Crease Angle mode only", default=math.radians(KNOB["crease_angle"].default),
+        min=0.0, max=math.pi, subtype="ANGLE"))
     modified_topology: bpy.props.EnumProperty(
         name="Changed Topology",
         items=[
@@ -137,24 +122,52 @@ class RadiositySettings(bpy.types.PropertyGroup):
     )
     last_report: bpy.props.StringProperty(name="Last Bake", default="", description="What the last bake did")
 
-    def core_arguments(self, extent: float, triangles: int) -> tuple[str, str, dict]:
-        """(method, solver, knobs) for ``core.bake`` on a scene of bounding-box diagonal ``extent``
-        and ``triangles`` triangles."""
-        if self.preset == "CUSTOM":
-            knobs = {
-                "patch_size": self.patch_size or None,
-                "rays_per_form_factor": int(self.rays),
-                "hemicube_resolution": self.hemicube_resolution,
-                "tolerance": self.tolerance,
-                "refinement_levels": self.refinement_levels,
-            }
+    def knobs(self) -> dict:
+        """The core knobs these settings stand for, None where they leave the core to decide,
+        before a preset's (``core_arguments``)."""
+        return {
+            "method": self.method,
+            "solver": self.solver,
+            "patch_size": self.patch_size or None,
+            "rays_per_form_factor": int(self.rays_per_form_factor),
+            "hemicube_resolution": self.hemicube_resolution,
+            "tolerance": self.tolerance,
+            "refinement_levels": self.refinement_levels,
+            "max_shots": self.max_shots if self.use_max_shots else None,
+            "monte_carlo_rays": None if self.monte_carlo_rays == AUTO else int(self.monte_carlo_rays),
+            "ambient": self.ambient,
+            "merge_flat": self.merge_flat,
+            "crease_angle": math.degrees(self.crease_angle),
+            "seed": self.seed,
+        }
+
+    def set_knob(self, name: str, value) -> None:
+        """Store core knob ``name`` = ``value`` (None where the knob allows it); ValueError when
+        Blender's property cannot hold it (a ray count it does not offer)."""
+        if name == "patch_size":
+            self.patch_size = value or 0.0
+        elif name == "max_shots":
+            self.use_max_shots = value is not None
+            self.max_shots = self.max_shots if value is None else value
+        elif name == "crease_angle":
+            self.crease_angle = math.radians(value)
+        elif name in ("rays_per_form_factor", "monte_carlo_rays"):
+            item = AUTO if value is None else str(value)
+            choices = [choice.identifier for choice in self.bl_rna.properties[name].enum_items]
+            if item not in choices:
+                offered = ", ".join("auto" if choice == AUTO else choice for choice in choices)
+                raise ValueError(f"{KNOB[name].flag} must be one of {offered} here, got {value}")
+            setattr(self, name, item)
         else:
-            knobs = preset_knobs(self.preset, extent)
-        knobs |= {"ambient": self.ambient, "crease_angle": math.degrees(self.crease_angle),
-                  "merge_flat": self.merge_flat, "max_shots": self.max_shots or None,
-                  "monte_carlo_rays": auto_monte_carlo_rays(triangles) if self.monte_carlo_rays == "AUTO"
-                  else int(self.monte_carlo_rays)}
-        return self.method, self.solver, knobs
+            setattr(self, name, value)
+
+    def core_arguments(self, extent: float) -> dict:
+        """The knobs for ``core.bake`` on a scene of bounding-box diagonal ``extent``: a preset's
+        over these settings' own."""
+        knobs = self.knobs()
+        if self.preset != "CUSTOM":
+            knobs |= preset_knobs(self.preset, extent)
+        return knobs
 
 
 classes = (RadiositySettings,)

@@ -234,14 +234,14 @@ def test_merge_flat_surfaces_reaches_the_core(room):
 
 
 def test_max_shots_reaches_the_core_and_the_report_says_the_bake_stopped(room):
-    """"Max Shots" (Advanced): 0, the default, shoots until the tolerance is met; 3 stops the
-    progressive solve after 3 shots, which the report line says, beside the solver's share of
-    the estimated error (above the tolerance it did not reach)."""
+    """"Limit Shots" (Advanced): off, the default, shoots until the tolerance is met; on with
+    Max Shots 3 stops the progressive solve after 3 shots, which the report line says, beside the
+    solver's share of the estimated error (above the tolerance it did not reach)."""
     settings = bpy.context.scene.radiosity
-    assert settings.max_shots == 0
+    assert not settings.use_max_shots
     assert bake_in_background() == {"FINISHED"}
     assert "stopped" not in settings.last_report, settings.last_report
-    settings.max_shots = 3
+    settings.use_max_shots, settings.max_shots = True, 3
     assert bake_in_background() == {"FINISHED"}
     assert ", stopped after 3 shots, " in settings.last_report, settings.last_report
     solver_share = float(re.search(r"solver ([\d.e+-]+)%", settings.last_report)[1])

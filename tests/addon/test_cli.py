@@ -58,11 +58,12 @@ def test_overwrite_only_when_asked(cli, saved_scene):
 
 @pytest.mark.parametrize("argv, message", [
     (["--output", "x.blend", "--preset", "fast"], "invalid choice"),
-    (["--output", "x.blend", "--rays", "10"], "--rays must be one of"),
-    (["--output", "x.blend", "--patch-size", "-1"], "--patch-size must be a positive length"),
-    (["--output", "x.blend", "--max-shots", "-1"], "--max-shots must be 0 (no limit) or more"),
+    (["--output", "x.blend", "--rays-per-form-factor", "10"], "rays_per_form_factor must be a perfect square"),
+    (["--output", "x.blend", "--rays-per-form-factor", "25"], "--rays-per-form-factor must be one of 1, 4, 9"),
+    (["--output", "x.blend", "--patch-size", "-1"], "patch_size must be a positive length"),
+    (["--output", "x.blend", "--max-shots", "-1"], "max_shots must be a non-negative integer or None"),
     (["--output", "x.blend", "--monte-carlo-rays", "100"], "--monte-carlo-rays must be one of auto, 0, 16, 64"),
-    (["--output", "x.blend", "--preset", "draft", "--tolerance", "0.1"], "--preset draft fixes the knobs"),
+    (["--output", "x.blend", "--preset", "draft", "--tolerance", "0.1"], "--preset draft fixes --tolerance"),
     (["--output", "x.txt"], "must be a .blend file"),
     (["--input", "/nonexistent.blend", "--output", "x.blend"], "no such file"),
     (["--output", "x.blend", "--bogus"], "unrecognized arguments"),
@@ -100,12 +101,18 @@ def test_render_writes_a_picture(cli, saved_scene, tmp_path):
 
 
 def test_max_shots_is_applied_and_saved_with_the_baked_file(cli, saved_scene, tmp_path):
-    output = str(tmp_path / "stopped.blend")
-    assert cli.main(["--output", output, "--max-shots", "1", "-q"]) == 0
-    bpy.ops.wm.open_mainfile(filepath=output)
+    """``--max-shots 1`` stops after one shot and the file keeps the limit; ``--max-shots none``
+    (the knob's word for None) lifts it again."""
+    stopped, unlimited = str(tmp_path / "stopped.blend"), str(tmp_path / "unlimited.blend")
+    assert cli.main(["--output", stopped, "--max-shots", "1", "-q"]) == 0
+    bpy.ops.wm.open_mainfile(filepath=stopped)
     settings = bpy.context.scene.radiosity
-    assert settings.max_shots == 1
+    assert settings.use_max_shots and settings.max_shots == 1
     assert ", stopped after 1 shot, " in settings.last_report, settings.last_report
+    assert cli.main(["--output", unlimited, "--max-shots", "none", "-q"]) == 0
+    bpy.ops.wm.open_mainfile(filepath=unlimited)
+    settings = bpy.context.scene.radiosity
+    assert not settings.use_max_shots and "stopped" not in settings.last_report, settings.last_report
 
 
 def test_monte_carlo_rays_are_applied_and_saved_with_the_baked_file(cli, saved_scene, tmp_path):
@@ -115,3 +122,40 @@ def test_monte_carlo_rays_are_applied_and_saved_with_the_baked_file(cli, saved_s
     settings = bpy.context.scene.radiosity
     assert settings.monte_carlo_rays == "64"
     assert "then Monte Carlo (64 rays per vertex)" in settings.last_report, settings.last_report
+
+
+def test_every_exposed_knob_is_a_property_and_an_option_of_the_same_name(addon, cli):
+    """The knob table (core.settings.KNOBS) names each knob once: Blender's property of that name
+    has the table's tooltip, and the command takes the knob's flag (``--patch-size``); the core's
+    command line takes the same flags (tests/core/test_settings.py)."""
+    settings = bpy.context.scene.radiosity
+    options = {flag for action in cli.build_parser()._actions for flag in action.option_strings}
+    for knob in addon.core.settings.KNOBS:
+        if not knob.exposed:
+            continue
+        assert knob.flag in options, knob.name
+        tooltip = settings.bl_rna.properties[knob.name].description
+        assert tooltip.startswith(knob.description), (knob.name, tooltip)
+
+
+def test_knobs_given_on_the_command_line_reach_the_core(cli, saved_scene, tmp_path, monkeypatch):
+    """Each exposed knob given on the command line arrives in the core's bake with its value (to
+    float32, which Blender's float properties hold)."""
+    seen = {}
+    original = cli.run_straight
+
+    def spy(prepared, echo=True):
+        seen.update(prepared.knobs)
+        return original(prepared, echo)
+
+    monkeypatch.setattr(cli, "run_straight", spy)
+    argv = ["--output", str(tmp_path / "baked.blend"), "-q", "--patch-size", "0.5", "--rays-per-form-factor", "4",
+            "--hemicube-resolution", "16", "--tolerance", "0.01", "--max-shots", "7", "--monte-carlo-rays", "16",
+            "--no-ambient", "--no-merge-flat", "--crease-angle", "45", "--refinement-levels", "1", "--seed", "3",
+            "--method", "raycast", "--solver", "progressive"]
+    assert cli.main(argv) == 0
+    assert seen == {"patch_size": 0.5, "rays_per_form_factor": 4, "hemicube_resolution": 16,
+                    "tolerance": pytest.approx(0.01, rel=1e-7),
+                    "max_shots": 7, "monte_carlo_rays": 16, "ambient": False, "merge_flat": False,
+                    "crease_angle": pytest.approx(45.0), "refinement_levels": 1, "seed": 3, "method": "raycast",
+                    "solver": "progressive"}
