@@ -1,0 +1,86 @@
+"""The knob table (core.settings.KNOBS) and what is made from it: BakeSettings and its
+validation, the core command line's options, the README's table."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import pytest
+
+from core.cli import parser
+from core.settings import KNOBS, BakeSettings, given_knobs, knob_table, resolved
+
+
+def test_bake_settings_has_the_knobs_in_order_with_their_defaults():
+    fields = dataclasses.fields(BakeSettings)
+    assert [field.name for field in fields] == [knob.name for knob in KNOBS]
+    assert all(field.default == knob.default for field, knob in zip(fields, KNOBS))
+
+
+def bad_values(knob) -> list:
+    """Values each rule of ``knob`` must refuse: past its bounds, off its grid, of the wrong kind."""
+    if knob.choices:
+        return ["nothing", None]
+    if knob.type is bool:
+        return [2, "yes", None]
+    values = [math.nan, math.inf, "ten"] + ([] if knob.none else [None])
+    if knob.low is not None:
+        values.append(knob.low if knob.open in ("low", "both") else knob.low - 1)
+    if knob.high is not None:
+        values.append(knob.high if knob.open in ("high", "both") else knob.high + 1)
+    if knob.type is int:
+        values.append(2.5)
+    if knob.square:
+        values.append(10)
+    if knob.even:
+        values.append(63)
+    return values
+
+
+def good_values(knob) -> list:
+    """Values inside every rule of ``knob``."""
+    if knob.choices:
+        return list(knob.choices)
+    if knob.type is bool:
+        return [True, False]
+    values = [knob.default] + ([None] if knob.none else [])
+    if knob.square:
+        values += [1, 64] + ([0] if knob.low == 0 else [])
+    elif knob.high is not None:
+        values.append((knob.low + knob.high) / 2 if knob.type is float else knob.high)
+    return values
+
+
+@pytest.mark.parametrize("knob", KNOBS, ids=lambda knob: knob.name)
+def test_each_knob_refuses_what_its_rule_excludes_and_takes_the_rest(knob):
+    for value in bad_values(knob):
+        with pytest.raises(ValueError, match=f"^{knob.name} must be "):
+            BakeSettings(**{knob.name: value})
+    for value in good_values(knob):
+        assert getattr(BakeSettings(**{knob.name: value}), knob.name) == value
+
+
+def test_resolved_decides_the_automatic_knobs():
+    settings = resolved(BakeSettings(), extent=8.0, triangles=10)
+    assert settings.patch_size == 1.0 and settings.monte_carlo_rays == 0
+    assert resolved(BakeSettings(), 8.0, 50_000).monte_carlo_rays == 64
+    assert resolved(BakeSettings(patch_size=0.5, monte_carlo_rays=16), 8.0, 50_000).patch_size == 0.5
+
+
+def test_the_command_line_offers_every_exposed_knob_by_its_name():
+    command = parser()._subparsers._group_actions[0].choices["bake"]
+    options = {flag for action in command._actions for flag in action.option_strings}
+    exposed = [knob for knob in KNOBS if knob.exposed]
+    assert {knob.flag for knob in exposed} <= options
+    assert not any(knob.flag in options for knob in KNOBS if not knob.exposed)
+    arguments = command.parse_args(["scene.obj", "--patch-size", "auto", "--max-shots", "none", "--monte-carlo-rays",
+                                    "16", "--no-merge-flat", "--rays-per-form-factor", "4", "--method", "hemicube"])
+    assert given_knobs(arguments) == {"patch_size": None, "max_shots": None, "monte_carlo_rays": 16,
+                                      "merge_flat": False, "rays_per_form_factor": 4, "method": "hemicube"}
+    assert given_knobs(command.parse_args(["scene.obj"])) == {}
+
+
+def test_the_knob_table_has_a_row_per_knob():
+    rows = knob_table().splitlines()[2:]
+    assert [row.split("`")[1] for row in rows] == [knob.name for knob in KNOBS]
