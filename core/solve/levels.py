@@ -124,7 +124,7 @@ class _Levels:
             radiosity = inherited.copy()
             radiosity[new] = corrected
             self.state = ShootingState(np.concatenate([radiosity, state.radiosity[patch_count:]]), unshot,
-                                       state.shots, state.power_shot, state.power_captured)
+                                       state.shots, state.power_shot, state.power_captured, state.has_shot[origin])
         else:
             self.radiosity = self.radiosity[origin]
         return light, patch_direct

@@ -21,13 +21,19 @@ TOGETHER = 0.5
 class ShootingState:
     """Where progressive refinement stands: radiosity (P + N, C) of the patches then the passive
     points, without the ambient term; unshot (P, C), signed (a refined patch may have received
-    too much); and the power shot so far, all of it and the part that landed on patches."""
+    too much); the power shot so far, all of it and the part that landed on patches; and which
+    patches have shot at least once (P,) bool."""
 
     radiosity: np.ndarray
     unshot: np.ndarray
     shots: int = 0
     power_shot: float = 0.0
     power_captured: float = 0.0
+    has_shot: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.has_shot is None:
+            self.has_shot = np.zeros(len(self.unshot), dtype=bool)
 
     @classmethod
     def start(cls, emission: np.ndarray, passive_emission: np.ndarray) -> "ShootingState":
@@ -67,8 +73,12 @@ def progressive(
     balance of a closed room at rho = 0.9999 by 3e-4.) With the brightest shooter, every patch
     within TOGETHER of its unshot power shoots too, in one product. ``state`` (ShootingState)
     resumes an earlier solve and is updated in place; without it the solve starts from B = U = E.
-    ``first`` (P,) bool: patches that shoot before any other, and before ``max_shots`` may stop
-    the solve (the emitters, when what is left goes to ``montecarlo``).
+    ``first`` (P,) bool: patches that each shoot once before any other patch shoots, and before
+    ``max_shots`` may stop the solve (the emitters, when what is left goes to ``montecarlo``):
+    their own light goes out first, and what they reflect later waits like any other light (an
+    emitter that reflects is lit again by every shot, so "until the emitters have nothing left"
+    would last until the whole solve converges). That first phase is at most one shot per patch
+    of ``first``.
 
     Stops when, in every channel, the light still unshot, with all its future bounces in a
     closed scene, sum A |U| / (1 - rho_mean), is at most ``tolerance`` of all the light,
@@ -107,10 +117,11 @@ def progressive(
         return float(shares.max()), light
 
     left, light = undistributed()
-    while (state.shots < limit or _pending(unshot, first)) and left > tolerance:
+    while (state.shots < limit or _waiting(state, first).any()) and left > tolerance:
         power = areas * (np.abs(unshot) / np.where(light > 0, light, 1.0)).sum(axis=1)
-        if _pending(unshot, first):
-            power = np.where(first, power, 0.0)
+        waiting = _waiting(state, first)
+        if waiting.any():
+            power = np.where(waiting, power, 0.0)
         source = int(np.argmax(power))
         # the patches within TOGETHER of the brightest shoot with it, in one product (all of them,
         # so that ties in a symmetric scene are not broken by rounding, unless the columns would
@@ -145,6 +156,7 @@ def progressive(
         received *= all_reflectance
         radiosity += received
         unshot[group] = 0.0
+        state.has_shot[group] = True
         unshot += received[:patch_count]
         state.shots += len(group)
         left, light = undistributed()
@@ -163,6 +175,8 @@ def progressive(
     }
 
 
-def _pending(unshot: np.ndarray, first: np.ndarray | None) -> bool:
-    """Whether a patch of ``first`` still has light to shoot."""
-    return first is not None and bool(unshot[first].any())
+def _waiting(state: ShootingState, first: np.ndarray | None) -> np.ndarray:
+    """(P,) bool: the patches of ``first`` that have light to shoot and have not shot yet."""
+    if first is None:
+        return np.zeros(len(state.unshot), dtype=bool)
+    return first & ~state.has_shot & state.unshot.any(axis=1)

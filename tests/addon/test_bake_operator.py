@@ -332,3 +332,34 @@ def test_monte_carlo_auto_carries_a_large_scene_after_the_emitters_shoot():
     settings = bpy.context.scene.radiosity
     assert bake_in_background() == {"FINISHED"}
     assert "then Monte Carlo (64 rays per vertex)" in settings.last_report, settings.last_report
+
+
+def glowing_principled(name: str, base: float, strength: float):
+    """An emissive Principled BSDF whose base colour also reflects, as Blender's emissive
+    materials usually do."""
+    material = diffuse_material(name, (base, base, base), principled=True)
+    shader = material.node_tree.nodes["Principled BSDF"]
+    shader.inputs["Emission Color"].default_value = (1.0, 0.9, 0.8, 1.0)
+    shader.inputs["Emission Strength"].default_value = strength
+    return material
+
+
+def test_monte_carlo_auto_finishes_when_the_emitters_reflect(addon):
+    """The large floor of the test above under two emissive Principled panels facing each other,
+    each reflecting half the light: every shot of one lights the other again, and Auto's Monte
+    Carlo must still take over once each emitting patch has shot its own light (at most one shot
+    per emitting patch, counted here on the same discretisation the bake made)."""
+    grid_object("Floor", cells=160, material=diffuse_material("Floor", (0.6, 0.5, 0.4)))
+    grid_object("Upper", 1.0, 2, location=(0, 0, 1.0), material=glowing_principled("Upper", 0.5, 5.0),
+                facing_down=True)
+    grid_object("Lower", 1.0, 2, location=(0, 0, 0.6), material=glowing_principled("Lower", 0.5, 2.0))
+    settings = bpy.context.scene.radiosity
+    assert bake_in_background() == {"FINISHED"}
+    shots = re.search(r", ([\d,]+) shots? then Monte Carlo \(64 rays per vertex\)", settings.last_report)
+    assert shots, settings.last_report
+    core = addon.core
+    prepared = addon.radiosity_addon.baking.prepare(bpy.context.scene, bpy.context.evaluated_depsgraph_get())
+    scene = prepared.extraction.scene
+    knobs = core.settings.resolved(core.BakeSettings(**prepared.knobs), scene.extent, len(scene.triangles))
+    mesh, _ = core.mesh.discretize.discretised(scene, knobs.patch_size, np.radians(knobs.crease_angle), knobs.merge_flat)
+    assert int(shots[1].replace(",", "")) <= int(mesh.patch_emission.any(axis=1).sum())

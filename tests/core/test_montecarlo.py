@@ -252,3 +252,25 @@ def test_pools_finished_in_different_rounds_stay_apart():
     density = pooled(mesh, hits[:, None], hits)[:, 0]
     assert np.allclose(density[:4], 20 / 0.04, rtol=1e-12)
     assert np.allclose(density[4:], 4 / 0.04, rtol=1e-12)
+
+
+def test_emitters_that_reflect_shoot_once_each_then_monte_carlo_carries_the_rest():
+    """A closed room whose two opposite walls emit and reflect (rho 0.5, as an emissive Principled
+    BSDF does): every shot lights the emitters again, so "shoot until no emitter has light left"
+    would shoot until the solve converged. Each emitting patch shoots its own light once, then the
+    rest goes by Monte Carlo: the shots are the emitting patches, and the colours are within the
+    solver's share of the bake's own error estimate (the Monte Carlo noise; the two bakes share
+    their patches) of the bake shot to convergence (measured 0.27 % against 1.0 %; 196 shots
+    against 13,296)."""
+    vertices, triangles = box()
+    emission = np.zeros((12, 3))
+    emission[4:8] = [2.0, 1.5, 1.0]  # the walls x = 0 and x = 1, facing each other
+    reflectance = np.full((12, 3), 0.5)
+    reflectance[8:] = [0.7, 0.6, 0.5]
+    scene = Scene(vertices, triangles, reflectance, emission)
+    converged = bake(scene, tolerance=1e-6)
+    result = bake(scene, monte_carlo_rays=256)
+    assert result.stats["shots"] == emitting_patches(scene) < converged.stats["shots"]
+    colors, exact = result.corner_colors.reshape(-1, 3), converged.corner_colors.reshape(-1, 3)
+    error = np.sqrt(((colors - exact) ** 2).mean()) / np.abs(exact).mean()
+    assert error <= result.stats["error_estimate"]["unshot"], (error, result.stats["error_estimate"])
