@@ -3,7 +3,7 @@
 A block standing on a floor meets it along the bottom edges of its sides. A floor patch across
 that line is half in the open and half under the block: its one radiosity is neither side's, and
 the block's bottom corners, which see the floor there at point-blank range, take it for the
-floor's value at the line (docs/cycles.md measured those corners at 0.83 of Cycles'). Cutting the
+floor's value at the line, too dark (docs/notes/experiments.md). Cutting the
 floor's triangles along the line (discontinuity meshing of the contact, Heckbert 1992, "Discontinuity
 meshing for radiosity"; Lischinski, Tampieri and Greenberg 1992) puts patch edges on it.
 

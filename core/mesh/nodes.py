@@ -15,14 +15,14 @@ from .topology import WELD_TOLERANCE, connected_components, degenerate, weld_cor
 # faces, inside its own surface, as Cycles bakes a corner 1e-4 x max(1, |coordinates|) inside the
 # corner's face (../shared/CYCLES.md), but scaled with the scene: at the vertex itself a surface
 # touching it is seen exactly edge-on, and a ray leaving it starts on every face that meets there.
-# On Sponza (extent 38 m: 1.5 mm, Cycles' 1.5 mm at 15 m from the origin) a bake is 15.5 % from
-# Cycles' answer against 19.3 % at 1e-3 of the way to the faces' centre (0.02 mm on its 3 cm
-# mouldings); on the sample Cornell box it changes nothing (0.586 % against 0.585 %).
+# A step that shrinks with the faces instead (a fixed share of the way to their centre) puts the
+# nodes of small mouldings a hair from the surfaces they touch, and reads them too dark
+# (docs/notes/experiments.md).
 NODE_INSET = 4e-5
 # Corner normals (``Scene.corner_normals``) closer than this (about the angle between them, in
 # radians) are one shading normal: a flat-shaded face's normal shifts a corner's light by a part in
-# a hundred at most, while the sample Cornell box's twisted walls (flat faces bent by 3e-4) would get
-# a node per face at every vertex (539 -> 714 nodes; the 40 x 40 box 10,915 -> 15,753).
+# a hundred at most, while a wall twisted by a few 1e-4 radians would otherwise get a node per face
+# at every vertex.
 SAME_NORMAL = 1e-2
 
 

@@ -32,7 +32,7 @@ from ..util.overlaps import PARALLEL
 from .topology import connected_components, degenerate, weld_corners
 
 # A collapse keeps the vertex it removes within this fraction of each changed triangle's longest
-# edge of its plane (the left wall's panels: within 0.3 % of their size).
+# edge of its plane.
 FLATNESS = 1e-2
 # An outline vertex is removed only where its neighbours' line passes within this fraction of the
 # scene's extent of it (float32 rounding), and within FLATNESS of their distance, so no outline
@@ -97,8 +97,7 @@ def panels(scene: Scene, panel_size: float,
     fixed = np.isin(vertex_key[:, 1], weld[zero_area].ravel())
     flat = STRAIGHT * scene.extent
     # an emitter's patches are where its light is sampled from: larger ones blur the shadows it
-    # casts (the sample Cornell box's light in 2 panels, not 8 triangles: 1.3 % further from
-    # Cycles), so emitters merge only up to a finer size
+    # casts, so emitters merge only up to a finer size
     limit = np.where(scene.emission.any(axis=1), panel_size / EMITTER_DIVISIONS, panel_size)
     removed_any = False
     # a vertex with no valid collapse rests until a collapse changes the triangles around it

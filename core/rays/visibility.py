@@ -114,8 +114,8 @@ class Visibility:
     def occluded_between_unit(self, starts: np.ndarray, directions: np.ndarray, reach: np.ndarray) -> np.ndarray:
         """``occluded_unit`` for rays from points on or in front of the triangles' surfaces
         (lifted off them to their front) to points of those surfaces: no ``enclosing`` triangle
-        can block them, so none is traced (the same answers, fewer triangles: the sample
-        Cornell box's walls, 650 of its 904)."""
+        can block them, so none is traced (the same answers, fewer triangles: in a room, its
+        walls)."""
         if self._inner is None:
             return np.zeros(len(starts), dtype=bool)
         return self._occluded(starts, directions, reach, self._inner)

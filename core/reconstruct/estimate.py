@@ -7,12 +7,11 @@ sqrt(mean |c - c*|^2) / mean |c*| (the NRMSE the benchmarks measure, docs/result
 
 Discretisation, by the first of three measures that applies:
 - with ray casting and the near field, how far the patches next to each node are from linear,
-  rho_n sum_{q near n} F(n, q) |mean corner colour - B_q| (``nearfield.reading_error``): 2 to 5
-  times the measured error on the Cornell boxes and the cube room (docs/methods.md);
+  rho_n sum_{q near n} F(n, q) |mean corner colour - B_q| (``nearfield.reading_error``);
 - after adaptive refinement, LEVEL_FACTOR times the change of the node colours in the last
   level: if each level shrinks the error by a factor r, what is left after it is the sum of the
-  changes still to come, r / (1 - r) times the last one, at most 2 for r <= 2/3 (measured on
-  the reflective cube room of tests/core/test_error_estimate.py: r = 0.55 to 0.6);
+  changes still to come, r / (1 - r) times the last one, at most 2 for r <= 2/3 (the reflective
+  cube room of tests/core/test_error_estimate.py is about that);
 - on one level, the gap between each corner's colour (evaluated at the corner) and the radiosity
   of its triangle's patch nearest that corner (evaluated at the patch's receiving point): the
   change of radiosity across a patch's reach, which a constant patch cannot represent. Loose,

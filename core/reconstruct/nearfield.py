@@ -4,8 +4,8 @@ A vertex colour gathers B_n = E_n + rho_n sum_q F(n, q) B_q with one radiosity B
 From a vertex on a concave edge or a contact line (the ceiling along the top of a wall, a wall
 standing on the floor), up to half of the view is the patch just across the edge, seen almost
 entirely at the edge itself; the patch's mean is not its value there (the top of a wall grazed by
-the light is darker than the wall's patch). That error falls only linearly with the patch size
-and held 96 % of the squared error of the sample Cornell box (docs/cycles.md).
+the light is darker than the wall's patch). That error falls only linearly with the patch size,
+and it was most of the error of the first bakes of a Cornell box (docs/notes/experiments.md).
 
 For each patch q near a node n (centroid within NEAR_REACH of its longest edge, box within
 NEAR_REACH of the median longest edge) the near field reads the patch's linear interpolant of its
@@ -41,8 +41,7 @@ from ..util.geometry import barycentric_grid, longest_edges
 NEAR_REACH = 1.25  # a patch is near a node whose point lies within this many longest edges of its centroid
 # Where a node looks on a patch: the patch split into 4 x 4 pieces, and where one piece holds
 # more than PEAKED of the form factor, the 2 it sees most of split again (46 exact form factors
-# per pair). Sample Cornell box against Cycles: 0.96 %; a uniform split 4 x 4: 1.31 %, 8 x 8:
-# 1.02 %, 16 x 16 (256 per pair): 0.95 %.
+# per pair): about as accurate as a uniform 16 x 16 split (256 per pair; docs/notes/experiments.md).
 QUADRATURE_DIVISIONS = 4
 REFINED = 2
 PEAKED = 0.25
@@ -58,8 +57,8 @@ DARK = 1e-2
 # A patch whose corners are all within this fraction of its size above a point's tangent plane
 # (its own surface: the rounding of a coplanar patch) is not seen from it.
 HORIZON = 1e-9
-# Point-patch pairs the gather at the interpolation nodes may cost (about 20 s of one core): in
-# a large scene (Sponza: tens of thousands of interpolation nodes) they are left out.
+# Point-patch pairs the gather at the interpolation nodes may cost (tens of seconds of one core):
+# in a large scene (tens of thousands of interpolation nodes) they are left out.
 GATHER_BUDGET = 50_000_000
 
 FormFactors = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
@@ -184,9 +183,9 @@ def reading_error(near: NearField, mesh: Discretization, radiosity: np.ndarray, 
     The linear reading is off by the part of the radiosity across the patch that is not linear;
     its size is the gap between the mean of the corner colours (the linear interpolant's value at
     the centroid) and the patch's own radiosity there, which agree wherever radiosity is linear
-    across the patch. ``lighting`` (N + M, C) is ``corrected_lighting``'s. Measured against
-    converged references (Cornell boxes, patch sizes extent / 4 to / 16): 2 to 5 times the error
-    of the whole bake (docs/methods.md)."""
+    across the patch. ``lighting`` (N + M, C) is ``corrected_lighting``'s. Against converged
+    references it bounds the error of the whole bake (tests/core/test_error_estimate.py; the
+    ratio on each benchmark scene: docs/results/tradeoffs.md)."""
     channels = radiosity.shape[1]
     emission, reflectance = _receiver_surfaces(near, mesh, channels)
     colours = emission + reflectance * lighting

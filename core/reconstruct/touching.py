@@ -7,10 +7,8 @@ on it. The near field (``nearfield``) reads the patch's linear interpolant of it
 at the kernel-weighted centroid of a 4 x 4 split, which at this range puts a few percent of the
 weight on the far corners; and where a shadow line leaves the contact point (a block's shadow
 starts at its foot), the light around the foot is a wedge, lit on one side and dark on the other,
-at every scale, which no linear interpolant shows however small the patches. On the sample
-Cornell box these put the blocks' bottom corners up to 35 % off Cycles' answer and our converged
-reference 0.56 % from it (docs/cycles.md); in the cube room of tests/core/test_error_estimate.py
-the first alone held most of the error at a quarter of the extent (1.65 % -> 0.64 %).
+at every scale, which no linear interpolant shows however small the patches. Both put the
+corners where blocks stand on a floor far off (docs/notes/experiments.md).
 
 For each near pair (n, q) where n touches q (a corner of q within TOUCH of q's longest edge) and
 F(n, q) >= MIN_FORM_FACTOR, q is taken in polar coordinates about n's foot f on q (clamped into

@@ -117,7 +117,7 @@ class AreaLight:
 
 
 # Sides of the polygon that stands for a disk or ellipse light (same area as the ellipse): its
-# form factors differ from the ellipse's by O(1/n^2) near the rim, 0.2% at 32 (tests/core/test_lights.py).
+# form factors differ from the ellipse's by O(1/n^2) near the rim (tests/core/test_lights.py).
 ELLIPSE_SEGMENTS = 32
 AREA_SHAPES = ("SQUARE", "RECTANGLE", "DISK", "ELLIPSE")
 

@@ -43,13 +43,11 @@ from ..util.spatial import ranks
 PARTICLES_PER_BLOCK = 1 << 15
 POINTS_PER_BLOCK = 1 << 11
 # Particles a pool of ``pooled`` must receive, and its layers' depth (LAYERS_PER_CELL per spacing):
-# Sponza's Monte Carlo 64 bake was 10.2 / 10.5 / 11.1 % from Cycles' answer (6.8 / 7.0 / 7.9 %
-# from path tracing at 400 vertices) with 8 / 16 / 32 hits; the sample Cornell box the same.
+# more hits per pool blur more and were no better on the benchmark scenes (docs/notes/experiments.md).
 MIN_HITS = 8
 LAYERS_PER_CELL = 4
-# Particles per patch per final-gather ray (``bake``'s monte_carlo_rays): on the sample Cornell box,
-# 64 / 256 / 1,024 rays with 4 / 16 / 64 particles per patch leave 5.1 / 2.2 / 0.95 % from the
-# converged answer (the shots of the light alone before them; seed 0).
+# Particles per patch per final-gather ray (``bake``'s monte_carlo_rays): the patches' noise and
+# the gather's fall together as the rays grow (tests/core/test_montecarlo.py).
 PARTICLES_PER_RAY = 1 / 16
 
 @dataclass(frozen=True)
@@ -220,7 +218,7 @@ def pooled(mesh: Discretization, arrived: np.ndarray, hits: np.ndarray, min_hits
     every gather that meets it. A pool is unbiased over its members, so it must not mix light
     and dark: hence hits, not area (where light is dense pools stay small), and layers (a
     moulding lit by the sky is not pooled with faces turned the same way a step behind it in
-    shadow: on Sponza that bias left the gallery tops 0.5 darker than path tracing)."""
+    shadow, whose darkness it would share)."""
     areas = mesh.patch_areas
     if hits.sum() <= 0:
         return np.zeros_like(arrived)

@@ -36,8 +36,8 @@ from .raycast import RayCaster, stratified_samples
 # Evaluation points per block of work (each with up to a few thousand rays).
 POINTS_PER_BLOCK = 1024
 # Sky directions per point, per ray of a form factor: the sky often shows through a window, a
-# small share s of the hemisphere, and n stratified directions see it to about sqrt(s / n):
-# 16 x 16 = 256 directions keep the blotches of a 5 % window under 1.5 % of its light.
+# small share s of the hemisphere, and n stratified directions see it to about sqrt(s / n) of
+# its light: a few hundred directions keep a small window's blotches to a few percent of it.
 SKY_RAYS_PER_RAY = 16
 # The pieces that splitting the area lights (``discretize.light_divisions``) may add, all lights together:
 # each piece costs its rays at every point.

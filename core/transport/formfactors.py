@@ -116,7 +116,7 @@ class FormFactorEngine:
         """Estimated peak of the ray-cast sample points and of the temporary arrays of the blocks
         in flight (one per thread, and one waiting): per ray-cast pair about 200 bytes plus 32
         per ray, per hemicube ray about 100 bytes plus the block's dense rows (upper bounds,
-        from tracemalloc on the Cornell box)."""
+        from tracemalloc)."""
         in_flight = parallel.THREADS + 1
         if self.method == "hemicube":
             rows = self._rows_per_block(0)

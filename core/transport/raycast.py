@@ -24,9 +24,7 @@ _GOLDEN = (np.sqrt(5) - 1) / 2
 # An emitting patch whose centroid is closer to a point than CLOSE_REACH of its longest edge is
 # sampled from there with CLOSE_RAYS rays, none skipped by the probes: a few samples of a large
 # source decide most of a point's direct light, and a blocker near the point (a moulding's lip)
-# hides part of it. Sponza's gallery tops, 0.3 to 1 m under the sky's 4 m triangles: their direct
-# light was 6.0 % RMS off at 4 rays (4.6 % at 16 with probes), 1.3 % with this (1.1 % at a reach
-# of 2, which took 25 s more); the bake 12.3 -> 11.2 % from Cycles' answer for 7 s more.
+# hides part of it (the tops of a gallery under a large sky triangle: docs/notes/experiments.md).
 CLOSE_REACH = 0.75
 CLOSE_RAYS = 64
 

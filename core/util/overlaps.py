@@ -11,9 +11,9 @@ from .geometry import areas_and_normals, longest_edges
 CONTACT_TOLERANCE = 1e-6  # distance to a plane, as a fraction of the triangle's longest edge, that counts as on it
 # 1 - |cos| below which two triangles are coplanar (or parallel) and do not cut each other: an angle
 # of 1e-3 radians. It absorbs float32 rounding (Blender's coordinates: 6e-8 of a 1 m scene, 1e-5
-# radians on a 1 cm triangle) and near-flat modelling (the Cornell box's left wall is a twisted
-# quad: split 40 x 40, neighbouring cells differ by 3e-4 radians, and at 1e-9 half of them cut
-# each other along their shared edges); a cylinder of 1,000 sides bends by 6e-3 radians.
+# radians on a 1 cm triangle) and near-flat modelling (a twisted quad split into a fine grid bends
+# by a few 1e-4 radians from cell to cell, and must not cut itself along its shared edges), while
+# a cylinder of 1,000 sides still bends by 6e-3 radians.
 PARALLEL = 1 - np.cos(1e-3)
 
 

@@ -12,9 +12,9 @@ from . import parallel
 # A box is listed in every grid cell it overlaps; one overlapping more than LARGE_CELLS cells is
 # tested against every box of the other set instead.
 LARGE_CELLS = 4096
-# Grid cells are this many times the median box size: boxes against boxes, twice (Sponza's
-# triangles against themselves: 2.2 s; at half, 5.0 s); points against boxes, half (the vertices of
-# the 40 x 40 Cornell box against their near patches: 0.18 s; at twice, 0.93 s).
+# Grid cells are this many times the median box size: boxes against boxes, twice (a box is listed
+# in few cells); points against boxes, half (each point falls in one cell, and smaller cells
+# test fewer boxes per point). Both chosen by timing the large scenes (docs/notes/experiments.md).
 BOX_CELL = 2.0
 POINT_CELL = 0.5
 # Candidate pairs made at once (about 50 bytes each): bounds the memory of a dense cell.
