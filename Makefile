@@ -54,16 +54,18 @@ test-addon: $(VENV)/.ready $(VENV42)/.ready
 extension: $(VENV)/.ready
 	$(PY) tools/build_extension.py --output-dir build
 
-## Speed and accuracy figures (docs/benchmarks.md), the trade-off sweep of every knob, method, solver and
-## preset (docs/tradeoffs.md and its figures; `$(PY) bench/sweep.py --quick` is a one-minute check), then
-## Cycles against ours on the sample Cornell box (docs/cycles.md, the README's headline plot), on the
-## box with 40 x 40 walls (docs/fine_mesh.md) and on Sponza (docs/sponza.md): about 70 minutes on 2 cores
+## Every study of bench/ (`$(PY) -m bench --help` lists them; each has a --quick check of a few minutes,
+## written into build/bench-quick/): speed, accuracy and memory, the trade-off sweep of every knob, method,
+## solver and preset, then ours against Cycles on the sample Cornell box, on the box with 40 x 40 walls and
+## on Sponza, and Sponza's bakes against path tracing. Writes docs/results/ (the reports, their figures and
+## the README's pictures) and keeps the raw results in build/bench/: about 75 minutes on 2 cores
 bench: $(VENV)/.ready
-	$(PY) bench/run.py
-	$(PY) bench/sweep.py
-	$(PY) bench/cycles.py
-	$(PY) bench/fine_mesh.py
-	$(PY) bench/sponza.py
+	$(PY) -m bench benchmarks
+	$(PY) -m bench tradeoffs
+	$(PY) -m bench versus_cycles
+	$(PY) -m bench fine_mesh
+	$(PY) -m bench sponza
+	$(PY) -m bench path_traced
 
 # wheels/ stays: it only holds downloads, which the extension build and its test reuse
 clean:

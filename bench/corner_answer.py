@@ -1,8 +1,8 @@
 """The path-traced answer at random triangle corners of a scene, each where a bake reads it (its
-node), for scenes where no bake of ours converges: the Sponza rows of the trade-off sweep
-(bench/sweep.py) and the scoring of Sponza's bakes against Cycles' (bench/path_traced.py).
+node), for scenes where no bake of ours converges: the Sponza rows of the trade-off sweep and the
+scoring of Sponza's bakes against Cycles' (the tradeoffs and path_traced studies).
 
-Path tracing (core/pathtrace.py) reads only the patches' geometry, reflectance and emission, not
+Path tracing (bench/pathtrace.py) reads only the patches' geometry, reflectance and emission, not
 their radiosity, so it is independent of the solvers and of the bake's knobs but its seed."""
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bench.metrics import rms
 from bench.pathtrace import path_traced
 from core import BakeSettings, Scene
 from core.mesh.discretize import discretised
@@ -36,13 +37,16 @@ class CornerAnswer:
     @property
     def noise(self) -> float:
         """The answer's own noise: RMS of the standard errors over the mean radiosity."""
-        return float(np.sqrt((self.standard_error**2).mean()) / self.radiosity.mean())
+        return rms(self.standard_error) / float(self.radiosity.mean())
 
 
 def path_traced_corners(scene: Scene, patch_size: float, count: int, paths: int) -> CornerAnswer:
     """B = E + rho G at ``count`` random corners of non-emitting triangles (drawn with
     SELECTION_SEED among those with a node), G path-traced with ``paths`` paths at each corner's
-    node, on the patches of a default bake of ``patch_size``."""
+    node, on the patches of a default bake of ``patch_size``. The path tracer samples emitting
+    surfaces only: ValueError if the scene has lights or a sky."""
+    if scene.lights or np.any(scene.sky):
+        raise ValueError("the path tracer samples emitting surfaces only: this scene has lights or a sky")
     mesh, _ = discretised(scene, patch_size, math.radians(BakeSettings().crease_angle), True)
     front = mesh.front_patch_count
     visibility = Visibility(mesh.patch_corners[:front], two_sided=mesh.back_of_front >= 0,

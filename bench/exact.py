@@ -1,4 +1,4 @@
-"""Scenes whose baked corner values are known exactly, for the trade-off sweep (bench/sweep.py).
+"""Scenes whose baked corner values are known exactly, for the trade-off sweep (the tradeoffs study).
 
 - ``furnace``: a closed cube whose faces all reflect rho and emit E. Every point sees only the
   cube, so B = E + rho B: B = E / (1 - rho) at every corner.
@@ -20,8 +20,8 @@
 F(x -> polygon) is the exact unoccluded point-to-polygon form factor (Lambert's contour
 integral), summed over the polygon's triangles by ``core.transport.analytic.point_to_triangle``; the core's
 tests check it against Howell's catalogue (B-3, B-12) to 1e-12. The truth is evaluated at the
-triangle corners themselves; the core evaluates a corner 1e-3 of the way towards its face's
-centre (core.mesh.discretize.NODE_INSET), which moves these smooth fields by about 1e-4 relative.
+triangle corners themselves; the core evaluates a corner a little way towards its face's centre
+(core.mesh.nodes.NODE_INSET of the scene's extent), which these smooth fields hardly notice.
 
 Each scene is turned by one rigid motion (TURN), as the core's closed-form tests do: seen from an
 axis-aligned hemicube, an axis-aligned square whose edges project onto pixel edges is integrated

@@ -1,16 +1,17 @@
-"""The bpy side of the Cycles comparison (bench/cycles.py): one measurement of the sample Cornell box
-per process, as ``python bench/cycles_worker.py CASE_JSON RESULT_PATH``, and ``run_case`` to start one
-from the driver. bpy can be imported once per process, so every case loads Blender afresh: it loads
-the checkout as a real extension (tools/source_extension.py), opens the file, measures and writes
-JSON. Times are taken around the bake calls only (Blender's start-up and the file load excluded).
+"""The studies' work inside Blender (the bpy module), each call in a process of its own through
+bench/runner.py (bpy can be imported once per process): a measurement of a .blend (``measure``),
+the core scene the add-on reads from one (``extract``), and the .blend files the studies build
+(``build_cornell_box``, ``save_scene``). The checkout is loaded as a real extension
+(tools/source_extension.py); times are taken around the bake calls alone (Blender's start-up and
+the file load excluded).
 
-Cases (dicts, JSON on the command line), by ``kind``; ``blend`` names another file with the same
-objects (bench/fine_mesh.py: the box with finer grids), or with other objects when ``emitters`` names
-its emitting meshes (bench/sponza.py): every other mesh is then compared, in the order of its name:
+Cases of ``measure`` (dicts, saved with the results as JSON), by ``kind``, on the file ``blend``
+whose emitting meshes are ``emitters`` (left out of every comparison; every other mesh is compared):
 
-- ``ours``: ``bpy.ops.radiosity.bake()``; ``settings`` sets ``scene.radiosity`` properties first
-  (e.g. ``{"preset": "CUSTOM", "patch_size": 0.03, "rays": "256"}``), ``node_inset`` moves
-  core.mesh.discretize.NODE_INSET, ``render`` is a path for a picture of the baked colours.
+- ``ours``: ``bpy.ops.radiosity.bake()``; ``settings`` sets scene.radiosity first (the core's
+  knobs by the core's names and values, through the add-on's ``set_knob``; its own properties,
+  such as ``preset``, as they are), ``node_inset`` moves core.mesh.nodes.NODE_INSET, ``render`` is
+  a path for a picture of the baked colours.
 - ``cycles``: a COMBINED vertex bake with ``samples`` and ``seed`` (../shared/CYCLES.md's recipe),
   optionally on a scene changed by one of VARIANTS.
 - ``check``: the same Cycles bake per object and all at once (``samples``, ``seed``).
@@ -19,48 +20,31 @@ its emitting meshes (bench/sponza.py): every other mesh is then compared, in the
 
 from __future__ import annotations
 
-import json
-import os
 import re
-import resource
-import subprocess
-import sys
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parent.parent
-BLEND = REPO / "sample_blends" / "cornell_box.blend"
-ATTRIBUTE = "Radiosity"  # scene.radiosity.attribute_name's default: what the bake writes
+from bench.runner import cpu_seconds
+
+ATTRIBUTE = "Radiosity"  # scene.radiosity.attribute_name's default: what our bake writes
 CYCLES_ATTRIBUTE = "cycles"
-EMITTERS = ("light",)  # the Cornell light's mesh: its corners carry its emission, left out of every comparison
-# The non-emitting surfaces of the file, in the order the tables list them (object names).
+CORNELL_EMITTERS = ("light",)  # the Cornell box's light: its corners carry its emission
+# The Cornell box's non-emitting surfaces (object names), in the order the tables list them.
 SURFACES = ("floor", "ceiling", "back_wall", "left_wall_red", "right_wall_green", "short_block", "tall_block")
 PICTURE_SCALE = 75  # percent of the scene's 512 x 512: a 256-sample render at 512 is too large a PNG
 
 
-def worker(case: dict, result_path: str) -> None:
-    """Measure ``case`` (see the ``_case_*`` functions) and write its JSON to ``result_path``."""
-    # bench/ is first on sys.path (the script's directory), where bench/cycles.py would shadow
-    # Blender's own "cycles" add-on: take it off before bpy is imported.
-    here = str(Path(__file__).resolve().parent)
-    sys.path[:] = [entry for entry in sys.path if os.path.abspath(entry or ".") != here]
-    sys.modules.pop("cycles", None)
-    sys.path.insert(0, str(Path(here).parent))
+def measure(case: dict) -> dict:
+    """Open ``case["blend"]`` with the extension enabled and measure ``case``; its result (JSON-ready)."""
     from tools.source_extension import blender_with_extension
 
     bpy, package = blender_with_extension()
-
-    bpy.ops.wm.open_mainfile(filepath=case.get("blend", str(BLEND)), load_ui=False)
-    kind = case["kind"]
-    result = {"ours": _case_ours, "cycles": _case_cycles, "check": _case_check, "render": _case_render}[kind](
-        bpy, package, case
-    )
-    result["threads"] = bpy.context.scene.render.threads
-    result["bpy"] = bpy.app.version_string
-    Path(result_path).write_text(json.dumps(result))
+    bpy.ops.wm.open_mainfile(filepath=case["blend"], load_ui=False)
+    kinds = {"ours": _case_ours, "cycles": _case_cycles, "check": _case_check, "render": _case_render}
+    return kinds[case["kind"]](bpy, package, case) | {"threads": bpy.context.scene.render.threads,
+                                                      "bpy": bpy.app.version_string}
 
 
 def _case_ours(bpy, package, case: dict) -> dict:
@@ -77,17 +61,20 @@ def _case_ours(bpy, package, case: dict) -> dict:
             return captured["result"]
         operators.run_straight = capturing
     scene = bpy.context.scene
-    for name, value in case.get("settings", {}).items():
-        setattr(scene.radiosity, name, value)
+    for name, value in case.get("settings", {}).items():  # the core's knobs by the core's names and values
+        if name in package.core.settings.KNOB:
+            scene.radiosity.set_knob(name, value)
+        else:  # the add-on's own: preset, two_sided, ...
+            setattr(scene.radiosity, name, value)
     if "node_inset" in case:  # a sensitivity check: where the core evaluates a vertex colour
-        discretize = package.core.mesh.discretize
-        if not hasattr(discretize, "NODE_INSET"):
-            raise RuntimeError("core.mesh.discretize.NODE_INSET is gone: update the node-inset case of bench/cycles.py")
-        discretize.NODE_INSET = case["node_inset"]
+        nodes = package.core.mesh.nodes
+        if not hasattr(nodes, "NODE_INSET"):
+            raise RuntimeError("core.mesh.nodes.NODE_INSET is gone: update the node-inset case of bench versus_cycles")
+        nodes.NODE_INSET = case["node_inset"]
     settings = {name: str(getattr(scene.radiosity, name)) for name in ("preset", "method", "solver", "two_sided")}
-    wall, cpu = time.perf_counter(), _cpu_seconds()
+    wall, cpu = time.perf_counter(), cpu_seconds()
     outcome = bpy.ops.radiosity.bake()
-    wall, cpu = time.perf_counter() - wall, _cpu_seconds() - cpu
+    wall, cpu = time.perf_counter() - wall, cpu_seconds() - cpu
     if outcome != {"FINISHED"}:
         raise RuntimeError(f"bpy.ops.radiosity.bake() returned {outcome}")
     summary = scene.radiosity.last_report
@@ -102,12 +89,11 @@ def _case_ours(bpy, package, case: dict) -> dict:
         package.radiosity_addon.preview.render_colours(scene, ATTRIBUTE, case["render"])
     return {"wall": wall, "cpu": cpu, "core_seconds": core_seconds, "stages": stages, "counts": counts,
             "summary": summary, "settings": settings, "threads_core": package.core.util.parallel.THREADS,
-            "objects": _read_corners(bpy, ATTRIBUTE, with_geometry=bool(case.get("render")),
-                                     emitters=case.get("emitters"))}
+            "objects": _read_corners(bpy, ATTRIBUTE, case["emitters"], with_geometry=bool(case.get("render")))}
 
 
 def _counts(stats: dict) -> dict:
-    """What the report quotes of a bake's stats: sizes, work, the knobs the core used, how far
+    """What the reports quote of a bake's stats: sizes, work, the knobs the core used, how far
     the solver got, and the core's own error estimate where it gives one (None where it does not)."""
     counts = {key: stats.get(key) for key in ("triangles", "panels", "patches", "nodes", "shots", "iterations",
                                               "rays_cast", "unshot_fraction", "error_bound", "error_estimate",
@@ -116,21 +102,21 @@ def _counts(stats: dict) -> dict:
 
 
 def _case_cycles(bpy, _package, case: dict) -> dict:
-    """A Cycles COMBINED vertex bake of every non-emitting mesh at once (the check case shows it
+    """A Cycles COMBINED vertex bake of every compared mesh at once (the check case shows it
     equals baking them one by one), timed around ``bpy.ops.object.bake``."""
     _cycles_settings(bpy.context.scene, case["samples"], case["seed"])
     if case.get("variant"):
-        VARIANTS[case["variant"]][1](bpy)
-    meshes = _baked_meshes(bpy, case.get("emitters"))
+        VARIANTS[case["variant"]][1](bpy, case["emitters"])
+    meshes = _compared_meshes(bpy, case["emitters"])
     _add_attribute(meshes, CYCLES_ATTRIBUTE)
     _select(bpy, meshes)
-    wall, cpu = time.perf_counter(), _cpu_seconds()
+    wall, cpu = time.perf_counter(), cpu_seconds()
     bpy.ops.object.bake(type="COMBINED", target="VERTEX_COLORS")
-    wall, cpu = time.perf_counter() - wall, _cpu_seconds() - cpu
-    return {"wall": wall, "cpu": cpu, "objects": _read_corners(bpy, CYCLES_ATTRIBUTE, emitters=case.get("emitters"))}
+    wall, cpu = time.perf_counter() - wall, cpu_seconds() - cpu
+    return {"wall": wall, "cpu": cpu, "objects": _read_corners(bpy, CYCLES_ATTRIBUTE, case["emitters"])}
 
 
-def _diffuse_bsdf(bpy) -> None:
+def _diffuse_bsdf(bpy, _emitters: list[str]) -> None:
     """Every Principled BSDF feeding a material output replaced by a Diffuse BSDF (roughness 0,
     Lambertian) of its base colour: does the Principled BSDF reflect more than a diffuse one?"""
     for material in bpy.data.materials:
@@ -146,10 +132,10 @@ def _diffuse_bsdf(bpy) -> None:
             tree.links.new(diffuse.outputs["BSDF"], output.inputs["Surface"])
 
 
-def _light_front_only(bpy) -> None:
+def _light_front_only(bpy, emitters: list[str]) -> None:
     """The emitters' Emission shader masked by Geometry > Backfacing, so they emit from their
     front only (a plain Emission shader emits from both sides): does the light's back matter?"""
-    for name in EMITTERS:
+    for name in emitters:
         for slot in bpy.context.scene.objects[name].material_slots:
             tree = slot.material.node_tree
             output = tree.get_output_node("CYCLES")
@@ -163,7 +149,7 @@ def _light_front_only(bpy) -> None:
             tree.links.new(mix.outputs["Shader"], output.inputs["Surface"])
 
 
-# Cycles bakes of a changed scene: (what the table says, the change)
+# Cycles bakes of a changed scene: (what the report says, the change)
 VARIANTS = {
     "diffuse_bsdf": ("Diffuse BSDF instead of the Principled BSDF", _diffuse_bsdf),
     "light_front_only": ("the light emitting from its front only", _light_front_only),
@@ -174,7 +160,7 @@ def _case_check(bpy, _package, case: dict) -> dict:
     """The same Cycles bake (same seed) done per object, each selected alone and active, and for
     all the meshes selected at once: the largest difference, and both times."""
     _cycles_settings(bpy.context.scene, case["samples"], case["seed"])
-    meshes = _baked_meshes(bpy)
+    meshes = _compared_meshes(bpy, case["emitters"])
     times = {}
     for name, groups in (("per_object", [[m] for m in meshes]), ("together", [meshes])):
         _add_attribute(meshes, name)
@@ -183,7 +169,7 @@ def _case_check(bpy, _package, case: dict) -> dict:
             _select(bpy, group)
             bpy.ops.object.bake(type="COMBINED", target="VERTEX_COLORS")
         times[name] = time.perf_counter() - start
-    one, both = _read_corners(bpy, "per_object"), _read_corners(bpy, "together")
+    one, both = (_read_corners(bpy, name, case["emitters"]) for name in ("per_object", "together"))
     difference = max(float(np.abs(np.array(one[n]["colours"]) - np.array(both[n]["colours"])).max()) for n in one)
     return {"max_difference": difference, "seconds": times}
 
@@ -214,8 +200,8 @@ def _picture_settings(scene) -> None:
 
 
 def _cycles_settings(scene, samples: int, seed: int) -> None:
-    """The unbiased settings of CYCLES.md (the file has them already; set again so the bench does not
-    depend on it)."""
+    """The unbiased settings of CYCLES.md (the files have them already; set again so that the
+    studies do not depend on it)."""
     scene.render.engine = "CYCLES"
     cycles = scene.cycles
     cycles.device = "CPU"
@@ -227,17 +213,13 @@ def _cycles_settings(scene, samples: int, seed: int) -> None:
     cycles.light_sampling_threshold = 0.0
 
 
-def _baked_meshes(bpy, emitters: list[str] | None = None) -> list:
-    """The non-emitting mesh objects: the Cornell box's in SURFACES order (failing if the file has
-    other surfaces), or, given the names of the ``emitters``, every other mesh by name."""
+def _compared_meshes(bpy, emitters: list[str]) -> list:
+    """Every mesh object but the ``emitters``: the Cornell box's in SURFACES order, others by name."""
     meshes = {obj.name: obj for obj in bpy.context.scene.objects if obj.type == "MESH"}
-    if emitters is not None:
-        if not set(emitters) <= set(meshes):
-            raise RuntimeError(f"emitters {sorted(set(emitters) - set(meshes))} are not meshes of the file")
-        return [meshes[name] for name in sorted(set(meshes) - set(emitters))]
-    if set(meshes) != set(SURFACES) | set(EMITTERS):
-        raise RuntimeError(f"unexpected meshes in {BLEND.name}: {sorted(meshes)}")
-    return [meshes[name] for name in SURFACES]
+    if not set(emitters) <= set(meshes):
+        raise RuntimeError(f"emitters {sorted(set(emitters) - set(meshes))} are not meshes of the file")
+    order = {name: index for index, name in enumerate(SURFACES)}
+    return [meshes[name] for name in sorted(set(meshes) - set(emitters), key=lambda n: (order.get(n, len(order)), n))]
 
 
 def _add_attribute(meshes: list, name: str) -> None:
@@ -256,12 +238,12 @@ def _select(bpy, objects: list) -> None:
     bpy.context.view_layer.objects.active = objects[0]
 
 
-def _read_corners(bpy, attribute: str, with_geometry: bool = False, emitters: list[str] | None = None) -> dict:
-    """{object: {"colours": (n, 3) list, "weights": (n,) list}} over the non-emitting meshes
-    (``_baked_meshes``), per loop (corner): the colour attribute's RGB and the corner's share of
-    its polygon's area; with ``with_geometry``, also the _geometry of each mesh."""
+def _read_corners(bpy, attribute: str, emitters: list[str], with_geometry: bool = False) -> dict:
+    """{object: {"colours": (n, 3) list, "weights": (n,) list}} over the compared meshes, per loop
+    (corner): the colour attribute's RGB and the corner's share of its polygon's area; with
+    ``with_geometry``, also the _geometry of each mesh."""
     out = {}
-    for obj in _baked_meshes(bpy, emitters):
+    for obj in _compared_meshes(bpy, emitters):
         mesh = obj.data
         data = mesh.color_attributes[attribute]
         if data.data_type != "FLOAT_COLOR" or data.domain != "CORNER":
@@ -272,7 +254,7 @@ def _read_corners(bpy, attribute: str, with_geometry: bool = False, emitters: li
         mesh.polygons.foreach_get("area", areas)
         sizes = np.empty(len(mesh.polygons), np.int32)
         mesh.polygons.foreach_get("loop_total", sizes)
-        scale = abs(np.linalg.det(np.array(obj.matrix_world)[:3, :3])) ** (2 / 3)  # the file's are identity
+        scale = abs(np.linalg.det(np.array(obj.matrix_world)[:3, :3])) ** (2 / 3)  # the files' are identity
         weights = np.repeat(areas * scale / sizes, sizes)  # polygons' loops are contiguous, in order
         out[obj.name] = {"colours": colours.reshape(-1, 4)[:, :3].tolist(), "weights": weights.tolist()}
         if with_geometry:
@@ -295,29 +277,66 @@ def _geometry(obj) -> dict:
     return {"positions": vertices[loops].tolist(), "triangles": vertices[triangles.reshape(-1, 3)].tolist()}
 
 
-def _cpu_seconds() -> float:
-    usage = resource.getrusage(resource.RUSAGE_SELF)
-    return usage.ru_utime + usage.ru_stime
+def extract(path: Path) -> tuple[dict, np.ndarray, np.ndarray]:
+    """The core scene of the .blend at ``path`` as the add-on reads it (its fields, as plain
+    arrays: the extension's own classes cannot be unpickled without Blender), and the (object
+    name, loop) each triangle corner's colour is written to, both (T, 3)."""
+    from tools.source_extension import blender_with_extension
+
+    bpy, package = blender_with_extension()
+    bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
+    extraction = package.radiosity_addon.extract.extract(bpy.context.evaluated_depsgraph_get())
+    scene = extraction.scene
+    if scene.lights:
+        raise ValueError(f"{path.name} has lights, which only Blender's process can hold")
+    fields = {name: getattr(scene, name) for name in scene.__dataclass_fields__ if name != "lights"}
+    count = len(scene.triangles)
+    owner, loop = np.empty((count, 3), dtype=object), np.zeros((count, 3), dtype=np.int64)
+    for target in extraction.targets:
+        owner[target.start:target.stop] = target.object_name
+        loop[target.start:target.stop] = np.asarray(target.loops).reshape(-1, 3)
+    return fields, owner, loop
 
 
-# --------------------------------------------------------------------------------------------------
-# Driver: run the cases in fresh processes, one at a time
-# --------------------------------------------------------------------------------------------------
+def build_cornell_box(path: Path, cell: float) -> str:
+    """The sample Cornell box with grid cells of about ``cell`` metres, saved at ``path`` by
+    sample_blends/build_samples.py (with this bpy); what was built."""
+    from tools.source_extension import import_bpy
+
+    bpy = import_bpy()
+    from sample_blends import build_samples
+
+    built = build_samples.build("cornell_box", path.parent, cell).rename(path)
+    return f"{build_samples.triangle_count(bpy.context.scene)} triangles, {built.stat().st_size / 1024:.0f} KiB"
 
 
-def run_case(case: dict) -> dict:
-    """``case`` measured by this module run as a script, in a new interpreter; its JSON."""
-    with tempfile.TemporaryDirectory(prefix="radiosity-cycles-") as scratch:
-        path = os.path.join(scratch, "result.json")
-        process = subprocess.run(
-            [sys.executable, str(Path(__file__).resolve()), json.dumps(case), path],
-            cwd=REPO, capture_output=True, text=True, check=False,
-        )
-        if process.returncode != 0 or not os.path.exists(path):
-            sys.stderr.write(process.stdout[-3000:] + process.stderr[-5000:])
-            raise RuntimeError(f"worker for {case} failed (exit code {process.returncode})")
-        return json.loads(Path(path).read_text())
+def save_scene(scene, names: list[str], path: Path) -> str:
+    """A core ``scene`` (+Y up, as the OBJ files) saved as a .blend at ``path``, turned to Blender's
+    +Z up by (x, y, z) -> (x, -z, y): one mesh object per material, named by ``names``; surfaces
+    purely diffuse Principled BSDFs of their reflectance, emitters a plain Emission shader; no world
+    light; Cycles set up as ../shared/CYCLES.md says. What was built."""
+    from tools.source_extension import import_bpy
 
+    bpy = import_bpy()
+    from sample_blends import build_samples
 
-if __name__ == "__main__":
-    worker(json.loads(sys.argv[1]), sys.argv[2])
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.context.preferences.filepaths.save_version = 0
+    vertices = scene.vertices[:, [0, 2, 1]] * np.array([1.0, -1.0, 1.0])
+    for material in np.unique(scene.material):
+        chosen = np.flatnonzero(scene.material == material)
+        used, corners = np.unique(scene.triangles[chosen], return_inverse=True)
+        mesh = bpy.data.meshes.new(names[material])
+        mesh.from_pydata(vertices[used].tolist(), [], corners.reshape(-1, 3).tolist())
+        mesh.update()
+        emission = scene.emission[chosen[0]]
+        if emission.any():
+            strength = float(emission.max())
+            mesh.materials.append(build_samples.emission(names[material], tuple(emission / strength), strength))
+        else:
+            reflectance = tuple(scene.reflectance[chosen[0]])
+            mesh.materials.append(build_samples.diffuse_principled(names[material], reflectance))
+        build_samples.link_object(names[material], mesh)
+    build_samples.set_render(bpy.context.scene, path.stem, 512, 512)
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True, check_existing=False)
+    return f"{len(scene.triangles)} triangles, {len(names)} meshes, {path.stat().st_size / 1024:.0f} KiB"

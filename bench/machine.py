@@ -1,94 +1,108 @@
-"""What the report says about the machine and the moment: date, processors, versions, load, and
-how many cores a run can actually get (the machine is shared)."""
+"""What a report says about the machine and the moment, the header of every report: date,
+processors, versions, the commit and the core that ran, the load, and how many cores a run could
+actually get (the machine is shared)."""
 
 from __future__ import annotations
 
 import datetime
 import hashlib
 import importlib.metadata
-import multiprocessing
 import os
 import platform
+import statistics
 import subprocess
+import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-PROBE_WORK = 30_000_000  # integers summed by each probe job (~0.5 s of one core)
+from bench.paths import REPO
+from bench.runner import value_in_fresh_process
+
+PROBE_WORK = 30_000_000  # integers summed by each probe (about half a second of one core)
+PACKAGES = ("numpy", "embreex", "bpy")
+CORE_LINE = "core (SHA-1 of core/**/*.py) at the {moment}"
 
 
-def machine() -> dict[str, str]:
-    """Date, processors, CPU model, versions and commit, as printed in the report's header."""
-    model = next(
-        (line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
-         if line.startswith("model name")),
-        platform.processor() or "unknown",
-    )
+def opening() -> dict[str, str]:
+    """The header at the start of a run: date, processors, CPU model, versions, commit, the core,
+    the load and the cores free."""
+    model = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                  if line.startswith("model name")), platform.processor() or "unknown")
     return {
         "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
         "nproc": str(len(os.sched_getaffinity(0))),
         "cpu": model,
         "python": platform.python_version(),
-        "numpy": importlib.metadata.version("numpy"),
-        "embreex": importlib.metadata.version("embreex"),
+        **{package: _version(package) for package in PACKAGES},
         "commit": _commit(),
-    }
+    } | _moment("start")
+
+
+def closing(header: dict[str, str]) -> dict[str, str]:
+    """The lines the header of a run that began with ``header`` gets at its end: the load, the
+    cores free and the core, with a warning (also on stderr) if core/ changed meanwhile."""
+    end = _moment("end")
+    if end[CORE_LINE.format(moment="end")] != header[CORE_LINE.format(moment="start")]:
+        end["WARNING"] = "core/ changed during the run: its bakes may mix two cores; run again"
+        print(f"warning: {end['WARNING']}", file=sys.stderr)
+    return end
 
 
 def core_digest() -> str:
-    """The first 12 hex digits of a SHA-1 over the names and contents of core/*.py: which core a
-    bake ran (the repository may change while the benchmark runs)."""
+    """The first 12 hex digits of a SHA-1 over the paths and contents of core/**/*.py: which core
+    a bake ran (the repository may change while a study runs)."""
     digest = hashlib.sha1()
-    for path in sorted((Path(__file__).resolve().parent.parent / "core").glob("*.py")):
-        digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    core = REPO / "core"
+    for path in sorted(core.rglob("*.py")):
+        digest.update(str(path.relative_to(core)).encode() + b"\0" + path.read_bytes())
     return digest.hexdigest()[:12]
 
 
-def load_average() -> str:
-    """The system's load averages over 1, 5 and 15 minutes."""
-    return " ".join(f"{load:.2f}" for load in os.getloadavg())
+def free_cores() -> float:
+    """Cores a run can get now: nproc x (seconds of one fixed CPU-bound probe alone) / (its mean
+    seconds when nproc of them run at once, each in a process of its own). About nproc on an
+    idle machine, less when other work holds cores."""
+    count = len(os.sched_getaffinity(0))
+    alone = value_in_fresh_process(probe)
+    with ThreadPoolExecutor(count) as threads:
+        together = list(threads.map(lambda _index: value_in_fresh_process(probe), range(count)))
+    return count * alone / statistics.mean(together)
 
 
-def load(moment: str) -> dict[str, str]:
-    """The load average and the cores free, at ``moment`` ("start" or "end"), for a report's header."""
+def probe() -> float:
+    """Seconds of a fixed amount of single-threaded CPU work that needs little memory."""
+    start = time.perf_counter()
+    sum(range(PROBE_WORK))
+    return time.perf_counter() - start
+
+
+def _moment(moment: str) -> dict[str, str]:
+    """The load averages, the cores free and the core, at ``moment`` ("start" or "end")."""
     return {
-        f"load average (1, 5, 15 min) at the {moment}": load_average(),
-        f"cores free at the {moment} (CPU-bound probe, see bench/machine.py)": f"{free_cores():.1f}",
+        f"load average (1, 5, 15 min) at the {moment}": " ".join(f"{load:.2f}" for load in os.getloadavg()),
+        f"cores free at the {moment} (CPU-bound probe, bench/machine.py)": f"{free_cores():.1f}",
+        CORE_LINE.format(moment=moment): core_digest(),
     }
 
 
-def free_cores() -> float:
-    """Cores this run can get now: nproc x (seconds of one fixed CPU-bound job alone) / (seconds of
-    nproc such jobs in nproc processes at once). About nproc on an idle machine, less when other
-    work holds cores."""
-    count = len(os.sched_getaffinity(0))
-    with ProcessPoolExecutor(count, mp_context=multiprocessing.get_context("spawn")) as pool:
-        list(pool.map(_probe_job, range(count)))  # start the processes
-        start = time.perf_counter()
-        pool.submit(_probe_job, 0).result()
-        alone = time.perf_counter() - start
-        start = time.perf_counter()
-        list(pool.map(_probe_job, range(count)))
-        together = time.perf_counter() - start
-    return count * alone / together
-
-
-def _probe_job(_index: int) -> int:
-    """A fixed amount of single-threaded CPU work that needs little memory."""
-    return sum(range(PROBE_WORK))
+def _version(package: str) -> str:
+    try:
+        return importlib.metadata.version(package)
+    except importlib.metadata.PackageNotFoundError:
+        return "not installed"
 
 
 def _commit() -> str:
     """The repository's HEAD, and the tracked files that differ from it."""
-    repo = Path(__file__).resolve().parent.parent
     try:
-        head = _git(repo, "rev-parse", "--short", "HEAD").strip()
-        changed = [line[3:] for line in _git(repo, "status", "--porcelain", "--untracked-files=no").splitlines()]
+        head = _git("rev-parse", "--short", "HEAD").strip()
+        changed = [line[3:] for line in _git("status", "--porcelain", "--untracked-files=no").splitlines()]
     except (OSError, subprocess.CalledProcessError):
         return "unknown"
     return head + (f", with local changes to {', '.join(changed)}" if changed else "")
 
 
-def _git(repo: Path, *arguments: str) -> str:
-    """The standard output of a git command run in ``repo``."""
-    return subprocess.run(["git", *arguments], cwd=repo, capture_output=True, text=True, check=True).stdout
+def _git(*arguments: str) -> str:
+    """The standard output of a git command run in the repository."""
+    return subprocess.run(["git", *arguments], cwd=REPO, capture_output=True, text=True, check=True).stdout

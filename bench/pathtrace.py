@@ -33,6 +33,7 @@ MIN_SURVIVAL = 0.05
 MAX_BOUNCES = 256
 PATHS_PER_BLOCK = 1 << 17
 
+
 class _Emitters:
     """The emitting patches, sampled in proportion to their power."""
 

@@ -1,119 +1,24 @@
-"""One benchmark case, measured in a fresh process (so ru_maxrss is this bake's own): a timed bake,
-the same bake again under tracemalloc (it slows NumPy-heavy code by ~25 %, so it never times), and
-the raw Embree throughput on the bake's own patch triangles, sampled before and after the rerun."""
+"""Embree alone on the patches a bake made, for the kind of ray its method casts: the throughput
+a bake's ray casting is measured against (the benchmarks study)."""
 
 from __future__ import annotations
 
 import math
-import resource
 import statistics
 import time
-import tracemalloc
-from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 
-import machine
-import scenes
-from core import Scene, bake
-from core.util import parallel
+from bench.runner import cpu_seconds
+from core import Scene
 from core.mesh.discretize import Discretization, discretize
 from core.rays.visibility import RAY_EPSILON, Visibility
+from core.util import parallel
 
-RAY_STAGES = ("form_factors", "solve", "gather")  # the stages of bake() that cast rays
 RAW_RAYS = 1 << 21  # rays in the raw batch, split across parallel.THREADS threads
 RAW_REPEATS = 5  # traces of the raw batch per sample; the median time counts
 SHOOTERS = 16  # sources per raw ray batch, as progressive refinement fetches 16 columns at a time
-
-
-@dataclass(frozen=True)
-class Case:
-    """A bake to measure: ``knobs`` go to bake() as they are; the errors of a scene's other bakes
-    are measured against its ``reference`` bake."""
-
-    scene: str
-    setting: str
-    method: str = "raycast"
-    knobs: dict = field(default_factory=dict)
-    reference: bool = False
-
-    @property
-    def label(self) -> str:
-        """The scene and setting, and the method unless it is the default, ray casting."""
-        return f"{self.scene} {self.setting}" + ("" if self.method == "raycast" else f" {self.method}")
-
-
-@dataclass
-class Measurement:
-    """What one case measured; sizes in bytes, times in seconds, rates in rays per second."""
-
-    case: Case
-    core: str  # machine.core_digest() when the case started
-    stats: dict  # BakeResult.stats of the timed bake
-    wall: float
-    cpu: float  # CPU seconds of the process (all threads) during the timed bake
-    bake_rays_per_second: float  # rays_cast over the seconds of the RAY_STAGES
-    raw_query: str
-    raw_rays_per_second: float
-    raw_rays_per_cpu_second: float
-    traced_peak: int  # tracemalloc peak of the rerun
-    maxrss_before: int  # ru_maxrss with the scene loaded, before baking
-    maxrss_after: int  # ru_maxrss after the timed bake (before anything else)
-    repeatable: bool  # the rerun gave identical corner colours
-    emitting: np.ndarray  # (T,) bool, the triangles with non-zero emission
-    corner_colors: np.ndarray
-    triangle_radiosity: np.ndarray
-
-    @property
-    def ratio(self) -> float:
-        """Bake rays per second over raw Embree rays per second."""
-        return self.bake_rays_per_second / self.raw_rays_per_second
-
-    @property
-    def cpu_ratio(self) -> float:
-        """The same per CPU second (the whole bake's): what the ratio would be if other processes
-        took no CPU from either measurement, and both used the cores equally well."""
-        return self.stats["rays_cast"] / self.cpu / self.raw_rays_per_cpu_second
-
-
-def measure(case: Case) -> Measurement:
-    """Load the case's scene, bake it timed, then bake it again traced between two samples of
-    raw Embree throughput (so the raw figure sees the machine's load at two moments)."""
-    core = machine.core_digest()
-    scene = scenes.LOADERS[case.scene]()
-    maxrss_before = _maxrss()
-    cpu, wall = _cpu_seconds(), time.perf_counter()
-    result = bake(scene, case.method, **case.knobs)
-    wall, cpu = time.perf_counter() - wall, _cpu_seconds() - cpu
-    maxrss_after = _maxrss()
-    stats = result.stats
-    raw = RawEmbree(scene, stats["settings"], case.method)
-    samples = [raw.sample()]
-    tracemalloc.start()
-    rerun = bake(scene, case.method, **case.knobs)
-    traced_peak = tracemalloc.get_traced_memory()[1]
-    tracemalloc.stop()
-    samples.append(raw.sample())
-    ray_seconds = sum(stats["seconds"].get(stage, 0.0) for stage in RAY_STAGES)
-    return Measurement(
-        case=case,
-        core=core,
-        stats=stats,
-        wall=wall,
-        cpu=cpu,
-        bake_rays_per_second=stats["rays_cast"] / ray_seconds,
-        raw_query=raw.query,
-        raw_rays_per_second=RAW_RAYS / statistics.mean(seconds for seconds, _cpu in samples),
-        raw_rays_per_cpu_second=RAW_RAYS * RAW_REPEATS / statistics.mean(cpu for _seconds, cpu in samples),
-        traced_peak=traced_peak,
-        maxrss_before=maxrss_before,
-        maxrss_after=maxrss_after,
-        repeatable=bool(np.array_equal(result.corner_colors, rerun.corner_colors)),
-        emitting=(scene.emission > 0).any(axis=1),
-        corner_colors=result.corner_colors,
-        triangle_radiosity=result.triangle_radiosity,
-    )
 
 
 class RawEmbree:
@@ -136,9 +41,9 @@ class RawEmbree:
 
     def sample(self) -> tuple[float, float]:
         """(median wall seconds of RAW_REPEATS traces of the batch, CPU seconds of all of them)."""
-        cpu = _cpu_seconds()
+        cpu = cpu_seconds()
         seconds = statistics.median(_timed(self._trace, self._parts) for _ in range(RAW_REPEATS))
-        return seconds, _cpu_seconds() - cpu
+        return seconds, cpu_seconds() - cpu
 
 
 def _timed(trace: Callable[..., np.ndarray], parts: list[tuple[np.ndarray, ...]]) -> float:
@@ -191,14 +96,3 @@ def _random_points(corners: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     root = np.sqrt(u)
     weights = np.stack([1 - root, root * (1 - v), root * v], axis=1)
     return np.einsum("nb,nbx->nx", weights, corners)
-
-
-def _maxrss() -> int:
-    """Peak resident set size of this process so far, in bytes (Linux reports KiB)."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-
-
-def _cpu_seconds() -> float:
-    """User plus system CPU time of this process, all threads."""
-    usage = resource.getrusage(resource.RUSAGE_SELF)
-    return usage.ru_utime + usage.ru_stime

@@ -1,151 +1,97 @@
 """Our bake against Cycles' on Sponza, the medium scene (../shared/scenes/dabrovic_sponza with the
 sky quad of bench/scenes.py): no converged bake of ours exists there, so the yardstick is Cycles'
 own answer, the mean of its two highest-sample seeds with that mean's noise removed in quadrature.
-Built as a .blend by bench/sponza_blend.py into build/sponza/ (not committed); every bake runs in a
-process of its own (bench/cycles_worker.py), timed around the bake call.
+Built as a .blend into build/ (bench/scenes.py, "sponza"); every bake runs in a process of its
+own (bench/in_blender.py), timed around the bake call. Writes docs/results/sponza.md.
 
 Ours are ``bpy.ops.radiosity.bake()``: progressive refinement stopped after a number of shots with the
 rest as the ambient term (no bake reaches a tolerance here in minutes), and the emitters' shots with
 the rest carried by Monte Carlo ("Monte Carlo" in the panel's Advanced settings).
-
-Run from the repository root: ``.venv/bin/python bench/sponza.py [--samples 256] [--quick]``; writes
-docs/sponza.md (``--quick``: build/sponza/sponza.md) and the raw results, build/sponza/results.json
-(``--quick``: results-quick.json; ``--from-results`` reports them again without baking).
 """
 
 from __future__ import annotations
 
-import json
-import math
-import statistics
-import subprocess
-import sys
-import time
-from pathlib import Path
-
-import machine
 import numpy as np
-from cycles import driver_parser, ladder, run, save_results, write_report
-from cycles_headline import seconds_at
-from cycles_metrics import nrmse, pct, seed_noise, table, without_noise
-from cycles_worker import REPO
 
-sys.path.insert(0, str(REPO))  # bench/scenes.py reads the scene with the core
-from scenes import DESCRIPTIONS  # noqa: E402
+from bench import comparison, markdown, scenes
+from bench.comparison import TARGET_SPEEDUP, Corners, CyclesAnswer, cycles_steps, seconds_at
+from bench.markdown import pct, table
+from bench.metrics import nrmse, seed_noise, without_noise
+from bench.paths import reports
 
-COMMAND = ".venv/bin/python bench/sponza.py"
-WORK = REPO / "build" / "sponza"
-BLEND = WORK / "sponza.blend"
-RESULTS, QUICK_RESULTS = WORK / "results.json", WORK / "results-quick.json"
-REPORT, QUICK_REPORT = REPO / "docs" / "sponza.md", WORK / "sponza.md"
-SAMPLES, QUICK_SAMPLES = 256, 64
-SEEDS = (1, 2)
-EMITTERS = ["sky"]  # bench/sponza_blend.py's emitting quad: left out of every comparison
-# Our bakes, by the panel's settings, all with 4 rays per form factor (as the sweep's Sponza rows,
-# docs/tradeoffs.md, unless swept): progressive refinement stopped after 300 shots, the rest as the ambient term (the
-# best of 100, 300 and 1,000 shots in the run before Monte Carlo), then the emitters' shots with the rest
-# carried by Monte Carlo at 64, 256 and 1,024 final-gather rays per vertex
-BAKES = {"300 shots, ambient term": {"max_shots": 300, "monte_carlo_rays": "0"},
-         **{f"Monte Carlo {n}": {"monte_carlo_rays": str(n)} for n in (64, 256, 1024)}}
-QUICK_BAKES = {"Monte Carlo 16": {"monte_carlo_rays": "16"}}
+STUDY = "sponza"
+SAMPLES, QUICK_SAMPLES = 256, 32
 RAYS = 4
-TARGET_SPEEDUP = 100.0
-
-
-def build() -> dict:
-    """The .blend, built afresh (bpy 5.0.1 of this venv)."""
-    process = subprocess.run([sys.executable, str(REPO / "bench" / "sponza_blend.py"), str(BLEND)],
-                             cwd=REPO, capture_output=True, text=True, check=True)
-    return {"built": process.stdout.strip().splitlines()[-1]}
+# Our bakes, by the core's knobs, all with RAYS rays per form factor (as the sweep's Sponza rows,
+# docs/results/tradeoffs.md, unless swept): progressive refinement stopped after 300 shots, the rest
+# as the ambient term (the best of 100, 300 and 1,000 shots in the run before Monte Carlo), then the
+# emitters' shots with the rest carried by Monte Carlo at 64, 256 and 1,024 final-gather rays per vertex
+BAKES = {"300 shots, ambient term": {"max_shots": 300, "monte_carlo_rays": 0},
+         **{f"Monte Carlo {n}": {"monte_carlo_rays": n} for n in (64, 256, 1024)}}
+QUICK_BAKES = {"Monte Carlo 16": {"monte_carlo_rays": 16}}
 
 
 def label(bake: str) -> str:
     return f"ours {bake}"
 
 
-def cases(quick: bool, samples: int) -> list[tuple[str, dict]]:
-    """Our bakes, then Cycles at each sample count with each seed."""
-    common = {"blend": str(BLEND), "emitters": EMITTERS}
-    ours = [(label(name), {"kind": "ours", "settings": {"preset": "CUSTOM", "rays": str(RAYS)} | settings} | common)
-            for name, settings in (QUICK_BAKES if quick else BAKES).items()]
-    cycles = [(f"cycles {n} seed {seed}", {"kind": "cycles", "samples": n, "seed": seed} | common)
-              for n in ladder(samples) for seed in SEEDS]
-    return ours + cycles
-
-
-def measure(quick: bool, samples: int) -> dict:
-    """Every case's result, with the run's header."""
-    start = time.perf_counter()
-    header = machine.machine() | {"core/*.py SHA-1": machine.core_digest()} | machine.load("start") | build()
-    print(", ".join(f"{k}: {v}" for k, v in header.items()), flush=True)
-    results = run(cases(quick, samples), start)
-    header |= machine.load("end") | {"core/*.py SHA-1 at the end": machine.core_digest()}
-    if header["core/*.py SHA-1 at the end"] != header["core/*.py SHA-1"]:
-        print("warning: core/ changed during the run: its bakes may mix two cores", file=sys.stderr)
-    return {"quick": quick, "samples": samples, "header": header, "results": results,
-            "minutes": (time.perf_counter() - start) / 60}
-
-
-def colours(result: dict) -> np.ndarray:
-    """(M, 3) corner colours of the compared meshes, in the order of their names."""
-    objects = result["objects"]
-    return np.concatenate([np.array(objects[name]["colours"], dtype=np.float64) for name in sorted(objects)])
+def measure(samples: int, quick: bool) -> dict:
+    """Our bakes, then Cycles at each sample count with each seed; every case's result, with the
+    run's header."""
+    blend = scenes.blend(STUDY)
+    common = blend.case()
+    ours = [(label(name), {"kind": "ours", "settings": {"preset": "CUSTOM", "rays_per_form_factor": RAYS} | settings}
+             | common) for name, settings in (QUICK_BAKES if quick else BAKES).items()]
+    cycles = comparison.cycles_cases(comparison.ladder(samples), common)
+    return comparison.measure(ours + cycles, {"scene built": blend.description})
 
 
 def report(data: dict) -> str:
     """The Markdown report of a run's results."""
     results, samples, quick = data["results"], data["samples"], data["quick"]
-    top = [colours(results[f"cycles {samples} seed {s}"]) for s in SEEDS]
-    answer = 0.5 * (top[0] + top[1])
-    scale = float(np.mean(answer))
-    answer_noise = seed_noise(top[0], top[1], scale) / math.sqrt(2)
+    answer = CyclesAnswer(comparison.cycles_runs(results, samples))
     cycles_noise, cycles_seconds, cycles_rows = [], [], []
-    for n in ladder(samples):
-        seeds = [colours(results[f"cycles {n} seed {s}"]) for s in SEEDS]
-        noise = seed_noise(seeds[0], seeds[1], scale)
-        wall = statistics.mean(results[f"cycles {n} seed {s}"]["wall"] for s in SEEDS)
+    for step in cycles_steps(results, comparison.ladder(samples)):
+        noise = seed_noise(*step.colours, answer.scale)
         cycles_noise.append(noise)
-        cycles_seconds.append(wall)
-        cycles_rows.append([f"Cycles {n} samples, seeds 1 and 2", f"{wall:.1f}", pct(noise)])
+        cycles_seconds.append(step.seconds)
+        cycles_rows.append([f"Cycles {step.samples} samples, seeds 1 and 2", f"{step.seconds:.1f}", pct(noise)])
     our_rows, speedups, estimates = [], [], []
     bakes = list(QUICK_BAKES if quick else BAKES)
     for name in bakes:
         result = results[label(name)]
-        ours = colours(result)
-        error = without_noise(nrmse(ours, answer), answer_noise)
+        ours = Corners.of(result).colours
+        error = without_noise(nrmse(ours, answer.colours), answer.noise)
         cycles_time, how = seconds_at(error, cycles_noise, cycles_seconds)
         speedups.append((name, cycles_time / result["wall"], error, result["wall"]))
         estimates.append(result["counts"]["error_estimate"]["total"] / error)
         counts, stages = result["counts"], result["stages"]
         our_rows.append([name, f"{result['wall']:.0f}", f"{counts['shots']:,}", f"{counts['unshot_fraction']:.2f}",
-                         pct(error), f"{float(np.mean(ours)) / scale:.3f}",
+                         pct(error), f"{float(np.mean(ours)) / answer.scale:.3f}",
                          f"{cycles_time:.3g}" + (" (extrapolated)" if how else ""),
                          f"{cycles_time / result['wall']:.3g}", pct(counts["error_estimate"]["total"]),
                          ", ".join(f"{name} {seconds:.0f}" for name, seconds in stages.items())])
     first = results[label(bakes[0])]["counts"]
+    about = (f"Options: `--samples N` (Cycles' highest samples, default {SAMPLES}; the bakes go from "
+             f"{comparison.FIRST_SAMPLES} samples up to it, x 4 at each step, two seeds each), `--quick`, "
+             "`--from-results JSON`. The machine is shared and noisy: compare within one run.")
     lines = [
-        "# Our bake against Cycles on Sponza (the medium scene)",
-        "",
-        f"Generated by `{COMMAND}` (from the repository root) in {data['minutes']:.1f} minutes"
-        + (" (`--quick`: not to quote)" if quick else "") + ". Options: `--samples N` (Cycles' highest samples, "
-        f"default {SAMPLES}; the bakes go from 16 samples up to it, x 4 at each step, two seeds each), `--quick`, "
-        "`--from-results JSON`. The machine is shared and noisy: compare within one run.",
-        "",
-        *(f"- {key}: {value}" for key, value in data["header"].items()),
+        *markdown.opening("Our bake against Cycles on Sponza (the medium scene)", STUDY, " ".join(data["argv"]),
+                          data["minutes"], quick, about, data["header"]),
         "",
         "## Scene and yardstick",
         "",
-        f"- {DESCRIPTIONS['sponza']}; built as a .blend by `bench/sponza_blend.py` (+Z up, one mesh per material, "
+        f"- {scenes.DESCRIPTIONS['sponza']}; built as a .blend by bench/scenes.py (+Z up, one mesh per material, "
         f"purely diffuse Principled BSDFs, the quad a plain Emission shader, no world light): "
-        f"{data['header']['built'].split(': ')[-1]}. {len(answer):,} corners on the meshes but the quad "
-        f"(`{', '.join(EMITTERS)}`), all compared. Ours bakes every surface two-sided (the panel's default), as "
-        f"Cycles reflects and emits: {first['triangles']:,} triangles, {first['patches']:,} patches, "
+        f"{data['header']['scene built'].split(': ')[-1]}. {len(answer.colours):,} corners on the meshes but the quad "
+        f"(`{scenes.SKY}`), all compared. Ours bakes every surface two-sided (the panel's "
+        f"default), as Cycles reflects and emits: {first['triangles']:,} triangles, {first['patches']:,} patches, "
         f"{first['nodes']:,} nodes.",
         f"- The yardstick is **Cycles' answer**: the mean of its two {samples}-sample seeds, whose own noise is "
-        f"{pct(answer_noise)} (RMS(seed 1 - seed 2) / 2 over the mean); every NRMSE below (RMS over every corner "
+        f"{pct(answer.noise)} (RMS(seed 1 - seed 2) / 2 over the mean); every NRMSE below (RMS over every corner "
         "and channel, over the mean) has it removed in quadrature. No bake of ours converges here in minutes, so "
-        "none is a reference; path tracing is the other yardstick (docs/path_traced.md, and the sweep's Sponza rows "
-        "in docs/tradeoffs.md).",
+        "none is a reference; path tracing is the other yardstick (docs/results/path_traced.md, and the sweep's "
+        "Sponza rows in docs/results/tradeoffs.md).",
         "",
         "## Ours",
         "",
@@ -156,8 +102,8 @@ def report(data: dict) -> str:
         f"Progressive refinement (raycast, {RAYS} rays per form factor, the rest at their defaults: patches of an "
         "eighth of the extent, never larger than a triangle). \"ambient term\": stopped after that many shots, "
         "the light not yet shot spread evenly as the ambient term. \"Monte Carlo N\": the emitters' patches "
-        "shoot (Max Shots 0), then what they left unshot goes, with all its bounces, by particles from the "
-        "patches (N / 16 per patch) and a final gather of N rays at each vertex (core/montecarlo.py). "
+        "shoot (no limit on the shots), then what they left unshot goes, with all its bounces, by particles from "
+        "the patches (N / 16 per patch) and a final gather of N rays at each vertex (core/solve/montecarlo.py). "
         "\"Cycles s\": a Cycles bake's time at the same NRMSE, along its noise (below) interpolated in log-log "
         "between its sample counts (extrapolated beyond them along the nearest segment). \"x\": that over ours.",
         "",
@@ -190,8 +136,8 @@ def report(data: dict) -> str:
             "scene and the buried-patch probes; near field), "
             f"{stages.get('solve', 0.0):.0f} s the emitters' shots and {stages.get('monte_carlo', 0.0):.0f} s "
             "Monte Carlo. What is left of the error is mostly not noise: see docs/methods.md, \"Large scenes\".",
-            "- Cycles' answer is not exact either: `bench/path_traced.py`, run after this, scores these bakes and "
-            "Cycles' against path tracing at random corners (docs/path_traced.md).",
+            "- Cycles' answer is not exact either: `python -m bench path_traced`, run after this, scores these "
+            "bakes and Cycles' against path tracing at random corners (docs/results/path_traced.md).",
         ]
     lines += [
         f"- The core's own error estimate {'bounds' if min(estimates) >= 1 else 'does not bound'} the measured "
@@ -202,16 +148,7 @@ def report(data: dict) -> str:
 
 
 def main(argv: list[str]) -> int:
-    parser = driver_parser(__doc__, SAMPLES, QUICK_SAMPLES)
-    options = parser.parse_args(argv)
-    if options.from_results:
-        data = json.loads(options.from_results.read_text())
-    else:
-        data = measure(options.quick, options.samples or (QUICK_SAMPLES if options.quick else SAMPLES))
-        save_results(data, QUICK_RESULTS if options.quick else RESULTS)
-    write_report(report(data), QUICK_REPORT if data["quick"] else REPORT)
+    parser = comparison.options(STUDY, __doc__.split("\n\n")[0], SAMPLES, QUICK_SAMPLES)
+    data = comparison.measured_or_saved(STUDY, parser.parse_args(argv), argv, SAMPLES, QUICK_SAMPLES, measure)
+    markdown.write(report(data), reports(data["quick"]) / f"{STUDY}.md")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))

@@ -11,7 +11,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib import ticker  # noqa: E402
-from records import COMBOS, Record, pareto_front  # noqa: E402
+
+from bench.markdown import MIB  # noqa: E402
+from bench.studies.tradeoffs_records import COMBOS, Record, pareto_front  # noqa: E402
 
 ERROR_FLOOR = 1e-6  # errors below this (exact to rounding) are drawn at it
 COLOURS = dict(zip(COMBOS, ("tab:blue", "tab:cyan", "tab:purple", "tab:orange", "tab:red", "tab:brown")))
@@ -28,7 +30,6 @@ PANEL_TITLES = {
     "merge_flat": "flat regions merged (1) or not (0)",
 }
 PRESET_LETTERS = {"DRAFT": "D", "PREVIEW": "Pv", "PRODUCTION": "Pr", "REFERENCE": "R"}
-MIB = float(1 << 20)
 
 
 def write_all(results: dict[str, list[Record]], output: Path, estimated: list[str]) -> list[Path]:

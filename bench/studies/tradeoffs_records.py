@@ -1,4 +1,4 @@
-"""What the trade-off sweep (bench/sweep.py) bakes and what it measured, and the Pareto front."""
+"""What the trade-off sweep bakes and what it measured, and the Pareto front."""
 
 from __future__ import annotations
 
@@ -89,7 +89,7 @@ class Record:
 
 @dataclass(frozen=True)
 class Answer:
-    """A path-traced answer (bench/corner_answer.py): its corners, the paths at each, its noise
+    """A path-traced answer's summary (bench/corner_answer.py): its corners, the paths at each, its noise
     (RMS of the standard errors over the mean) and the seconds the paths took."""
 
     corners: int
@@ -101,15 +101,14 @@ class Answer:
 @dataclass
 class Run:
     """What one run of the sweep measured: the records per scene; per benchmark scene the
-    reference bake's record or the path-traced answer's summary; per scene the BakeResult array compared; the machine and load
-    (``header``), the core's digest, the minutes the run took, and whether it was the quick
-    sweep."""
+    reference bake's record or the path-traced answer's summary; per scene the BakeResult array
+    compared; the machine, its load and the core (``header``), the minutes the run took, and
+    whether it was the quick sweep."""
 
     results: dict[str, list[Record]]
     references: dict[str, Record | Answer]
     quantities: dict[str, str]
     header: dict[str, str]
-    core: str
     minutes: float
     quick: bool
 

@@ -1,6 +1,6 @@
-"""The headline of docs/cycles.md: error against time on the sample Cornell box, for our presets,
-our methods x solvers and Cycles' COMBINED vertex bake at increasing samples, all measured in one
-run of bench/cycles.py; drawn as docs/headline.png.
+"""The headline of the study against Cycles (docs/results/versus_cycles.md): error against time on
+the sample Cornell box, for our presets, our methods x solvers and Cycles' COMBINED vertex bake at
+increasing samples, all measured in one run; drawn as docs/results/headline.png.
 
 The error is the NRMSE per corner against a converged reference: our own bake at settings beyond
 the REFERENCE preset (FINER), shown converged by its difference from the REFERENCE preset's bake
@@ -16,36 +16,34 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from cycles_metrics import Corners, nrmse, pct, seed_noise, table, without_noise
 
-PRESETS = ("DRAFT", "PREVIEW", "PRODUCTION", "REFERENCE")
+from bench.comparison import (
+    ANCHOR, SEEDS, TARGET_SPEEDUP, Corners, CyclesAnswer, cycles_runs, cycles_steps, seconds_at, settings_text,
+)
+from bench.markdown import pct, table
+from bench.metrics import nrmse, rms, seed_noise, without_noise
+from core.settings import PRESETS as CORE_PRESETS, SOLVERS
+
+PRESETS = tuple(CORE_PRESETS)  # DRAFT, PREVIEW, PRODUCTION, REFERENCE
 QUICK_PRESETS = ("DRAFT", "PREVIEW")
 DEFAULT_PRESET = "PREVIEW"  # scene.radiosity's default: the methods x solvers run at its knobs
-METHODS = ("raycast", "hemicube")
-SOLVERS = ("progressive", "jacobi", "gauss_seidel")
+METHODS = ("raycast", "hemicube")  # in the order of the tables
 DEFAULT_METHOD = ("raycast", "progressive")  # scene.radiosity's defaults (the DEFAULT_PRESET bake)
 DEFAULT_RUNS = 3  # the default bake is short: timed in this many processes, the median reported
 
-# Our converged reference: scene.radiosity settings beyond the TWIN preset's (CUSTOM knobs; patch
-# size in metres: the scene's extent is 0.96 m, so REFERENCE's patches are 60 mm; this file's input
-# triangles, at most 97 mm, are split by patches of 60 mm or less). The TWIN preset's bake is its
-# coarser twin: their difference shows whether the reference has converged. Measured by hand on
-# 2026-12-01 (the core of commit d88f000, against the 16384-sample Cycles mean of a run that day,
-# its noise removed): 45 mm patches (13,914 patches) with 16 rays, 42 s: 0.35 % from Cycles, 0.25 % on
-# the corners away from the edges; with 64 rays, 84 s: 0.28 %, 0.11 % away from the edges, and 0.22 %
-# from the 16-ray bake, which is the visibility noise the 16-ray reference charged to every bake
-# measured against it (the default bake: 0.54 % from the 16-ray reference, 0.49 % from this one).
+# Our converged reference: scene.radiosity settings beyond the TWIN preset's (CUSTOM, the core's
+# knobs; patch size in metres: the scene's extent is 0.96 m, so REFERENCE's patches are 60 mm, and
+# this file's input triangles are split by patches of 60 mm or less). The TWIN preset's bake is its
+# coarser twin: their difference shows whether the reference has converged. 64 rays, not 16: with 16
+# the reference's own visibility noise was charged to every bake measured against it.
 TWIN = "REFERENCE"
-FINER = {"preset": "CUSTOM", "patch_size": 0.045, "rays": "64", "tolerance": 1e-4}
+FINER = {"preset": "CUSTOM", "patch_size": 0.045, "rays_per_form_factor": 64, "tolerance": 1e-4}
 # --quick: cheap stand-ins, to try the plumbing (not converged)
-QUICK_TWIN, QUICK_FINER = "PREVIEW", {"preset": "CUSTOM", "patch_size": 0.1, "rays": "36", "tolerance": 1e-5}
+QUICK_TWIN = "PREVIEW"
+QUICK_FINER = {"preset": "CUSTOM", "patch_size": 0.1, "rays_per_form_factor": 36, "tolerance": 1e-5}
 
 TARGET_ERROR = 0.01  # within 1 % of the converged answer ...
-TARGET_SECONDS = 1.0  # ... in at most 1 s
-TARGET_SPEEDUP = 100.0  # and at least 100 x faster than Cycles at equal error
-# The issue's anchor for Cycles, quoted (not measured here): a Cornell box with 40 x 40 walls, 2 cores,
-# Blender 5.0.1 Cycles CPU, COMBINED vertex bake; samples -> (seconds, NRMSE).
-ANCHOR = {16: (1.4, 0.19), 64: (5.7, 0.088), 256: (28.0, 0.042), 1024: (146.0, 0.021)}
+TARGET_SECONDS = 1.0  # ... in at most 1 s, and TARGET_SPEEDUP x faster than Cycles at equal error
 
 
 def presets(quick: bool) -> tuple[str, ...]:
@@ -58,19 +56,21 @@ def twin(quick: bool) -> str:
     return QUICK_TWIN if quick else TWIN
 
 
-def our_cases(quick: bool, picture: str) -> list[tuple[str, dict]]:
+def our_cases(quick: bool, picture: str, common: dict) -> list[tuple[str, dict]]:
     """Our bakes of the headline, labelled: the presets (the default one DEFAULT_RUNS times, the
     first run also drawing its colours to ``picture``), the other methods x solvers at the default
-    preset, and the converged reference."""
+    preset, and the converged reference; ``common`` names the file."""
+    def ours(settings: dict) -> dict:
+        return {"kind": "ours", "settings": settings} | common
+
     cases = []
     for name in presets(quick):
-        runs = DEFAULT_RUNS if name == DEFAULT_PRESET else 1
-        cases += [(preset_label(name, run), {"kind": "ours", "settings": {"preset": name}}) for run in range(runs)]
+        cases += [(preset_label(name, run), ours({"preset": name}))
+                  for run in range(DEFAULT_RUNS if name == DEFAULT_PRESET else 1)]
     dict(cases)[preset_label(DEFAULT_PRESET)]["render"] = picture
-    cases += [(method_label(method, solver),
-               {"kind": "ours", "settings": {"preset": DEFAULT_PRESET, "method": method, "solver": solver}})
+    cases += [(method_label(method, solver), ours({"preset": DEFAULT_PRESET, "method": method, "solver": solver}))
               for method in METHODS for solver in SOLVERS if (method, solver) != DEFAULT_METHOD]
-    return cases + [(REFERENCE_LABEL, {"kind": "ours", "settings": QUICK_FINER if quick else FINER})]
+    return cases + [(REFERENCE_LABEL, ours(QUICK_FINER if quick else FINER))]
 
 
 REFERENCE_LABEL = "ours converged reference"
@@ -83,16 +83,6 @@ def preset_label(name: str, run: int = 0) -> str:
 
 def method_label(method: str, solver: str) -> str:
     return f"ours {method} {solver}"
-
-
-def cycles_label(samples: int, seed: int) -> str:
-    return f"cycles {samples} seed {seed}"
-
-
-def settings_text(settings: dict) -> str:
-    """scene.radiosity settings as the report shows them."""
-    return ", ".join(f"{name} {value:g}" if isinstance(value, float) else f"{name} {value}"
-                     for name, value in settings.items())
 
 
 UNCONFIRMED = "†"  # marks an error against our reference that Cycles cannot confirm (Headline.unconfirmed)
@@ -121,16 +111,13 @@ class Headline:
 
     results: dict[str, dict]
     ladder: tuple[int, ...]  # Cycles samples, ascending; two seeds each
-    seeds: tuple[int, int]
     quick: bool
 
     def __post_init__(self) -> None:
         self.reference = Corners.of(self.results[REFERENCE_LABEL]).colours
         self.top = self.ladder[-1]
-        first, second = (Corners.of(self.results[cycles_label(self.top, s)]).colours for s in self.seeds)
-        self.cycles_mean = 0.5 * (first + second)
-        self.cycles_scale = float(np.mean(self.cycles_mean))
-        self.cycles_mean_noise = seed_noise(first, second, self.cycles_scale) / math.sqrt(2)
+        answer = CyclesAnswer(cycles_runs(self.results, self.top))
+        self.cycles_mean, self.cycles_scale, self.cycles_mean_noise = answer.colours, answer.scale, answer.noise
         # the cross-check: our reference against Cycles' mean, and what is left once Cycles' noise is removed
         self.cross = nrmse(self.reference, self.cycles_mean)
         self.cross_bias = without_noise(self.cross, self.cycles_mean_noise)
@@ -162,13 +149,11 @@ class Headline:
 
     def _cycles_points(self) -> list[Point]:
         points = []
-        for samples in self.ladder:
-            results = [self.results[cycles_label(samples, s)] for s in self.seeds]
-            colours = [Corners.of(r).colours for r in results]
-            errors = {"reference": float(np.sqrt(np.mean([nrmse(c, self.reference) ** 2 for c in colours]))),
-                      "cycles": seed_noise(colours[0], colours[1], self.cycles_scale)}
-            points.append(Point(f"Cycles {samples}", "cycles", statistics.mean(r["wall"] for r in results), errors,
-                                f"seeds {' and '.join(map(str, self.seeds))}", results))
+        for step in cycles_steps(self.results, self.ladder):
+            errors = {"reference": rms([nrmse(c, self.reference) for c in step.colours]),
+                      "cycles": seed_noise(*step.colours, self.cycles_scale)}
+            points.append(Point(f"Cycles {step.samples}", "cycles", step.seconds, errors,
+                                f"seeds {' and '.join(map(str, SEEDS))}", step.runs))
         return points
 
     def noise_check(self, point: Point) -> float | None:
@@ -176,7 +161,7 @@ class Headline:
         over the seeds): close to its own noise if the noise estimate holds; None for the top."""
         if point.results[0]["samples"] == self.top:
             return None
-        return float(np.sqrt(np.mean([self.against_cycles(Corners.of(r).colours) ** 2 for r in point.results])))
+        return rms([self.against_cycles(Corners.of(r).colours) for r in point.results])
 
     def cycles_seconds_at(self, error: float, against: str) -> tuple[float, str]:
         """Cycles' seconds per bake at NRMSE ``error`` against yardstick ``against``, interpolated in
@@ -202,36 +187,13 @@ class Headline:
         return next(p for p in self.ours if p.label == DEFAULT_PRESET)
 
 
-def seconds_at(error: float, errors: list[float], seconds: list[float]) -> tuple[float, str]:
-    """Seconds at NRMSE ``error`` on Cycles' curve (``errors`` falling, ``seconds`` rising with
-    its samples), interpolated in log-log, and how ("" inside, "extrapolated" beyond: along the
-    first segment above, below along noise's law, time x 1 / error^2)."""
-    if error <= 0:
-        return math.inf, "no error left to match"
-    if error > errors[0]:
-        return _log_line(errors[0], seconds[0], errors[1], seconds[1], error), "extrapolated"
-    for k in range(len(errors) - 1):
-        if errors[k] >= error >= errors[k + 1]:
-            return _log_line(errors[k], seconds[k], errors[k + 1], seconds[k + 1], error), ""
-    best = int(np.argmin(errors))
-    return seconds[best] * (errors[best] / error) ** 2, "extrapolated"
-
-
-def _log_line(x0: float, y0: float, x1: float, y1: float, x: float) -> float:
-    """y at x on the straight line through (x0, y0) and (x1, y1) in log-log."""
-    if x0 == x1:
-        return math.sqrt(y0 * y1)
-    slope = math.log(y1 / y0) / math.log(x1 / x0)
-    return y0 * (x / x0) ** slope
-
-
 # --------------------------------------------------------------------------------------------------
 # The report's headline section and its plot
 # --------------------------------------------------------------------------------------------------
 
 
 def markdown(h: Headline, picture: str) -> list[str]:
-    """The headline section of docs/cycles.md, showing the plot ``picture`` (a path relative to it)."""
+    """The headline section of the report, showing the plot ``picture`` (a path relative to it)."""
     return [
         "## Headline: error against time",
         "",
@@ -407,7 +369,7 @@ def _anchor_ratio(h: Headline) -> str:
 
 
 def plot(h: Headline, path: Path, header: dict[str, str]) -> None:
-    """docs/headline.png: NRMSE over wall seconds, log-log, one panel per yardstick of AGAINST."""
+    """The headline plot: NRMSE over wall seconds, log-log, one panel per yardstick of AGAINST."""
     import matplotlib
 
     matplotlib.use("Agg")
