@@ -9,8 +9,9 @@ meshing for radiosity"; Lischinski, Tampieri and Greenberg 1992) puts patch edge
 
 A triangle U meets triangle T's plane along a segment where U's corners lie on both sides of the
 plane, or along an edge of U lying in it (within CONTACT_TOLERANCE of T's size). Each segment
-that runs inside T cuts T along its whole line: T becomes convex
-pieces, split in fans. Triangles parallel to T within PARALLEL are its neighbours, not contacts.
+that runs inside T cuts, along its line, the pieces of T it runs through: T becomes convex
+pieces, split in fans. Triangles parallel to T within PARALLEL are its neighbours, not contacts;
+triangles smaller than a given size neither are cut nor cut others (``pieces``).
 """
 
 from __future__ import annotations
@@ -22,11 +23,14 @@ from ..util.overlaps import CONTACT_TOLERANCE, PARALLEL, touching_boxes
 from ..util.spatial import ranks
 
 
-def pieces(corners: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def pieces(corners: np.ndarray, degenerate: np.ndarray, smallest: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Triangles (T, 3, 3) cut along their contact lines: (K, 3, 3) pieces with the winding of
     their triangle, and (K,) the triangle of each, in triangle order. A triangle without contact
-    (or ``degenerate``, (T,) bool) is its own single piece."""
-    target, start, end = _contact_lines(corners, degenerate)
+    or ``degenerate`` ((T,) bool) is its own single piece. Triangles whose longest edge is below
+    ``smallest`` neither are cut nor cut others: a patch that small straddling a contact line shows
+    little, and a detailed object's thousands of small triangles, all touching each other, would
+    each be cut by all the others."""
+    target, start, end = _contact_lines(corners, degenerate, smallest)
     if len(target) == 0:
         return corners, np.arange(len(corners))
     uncut = np.ones(len(corners), dtype=bool)
@@ -37,16 +41,17 @@ def pieces(corners: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.
     return np.concatenate([corners[uncut], cut])[order], owner[order]
 
 
-def _contact_lines(corners: np.ndarray, degenerate: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The lines that cut triangles met by another inside: (L,) the triangle each cuts, sorted,
-    and (L, 3) start and end of each."""
-    valid = np.flatnonzero(~degenerate)
+def _contact_lines(corners: np.ndarray, degenerate: np.ndarray,
+                   smallest: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The lines that cut triangles met by another inside, among those with an edge of length
+    ``smallest`` or more: (L,) the triangle each cuts, sorted, and (L, 3) start and end of each."""
+    size = longest_edges(corners)
+    valid = np.flatnonzero(~degenerate & (size >= smallest))
     first, second = touching_boxes(corners[valid])
     target, other = valid[first], valid[second]
     _, normals = areas_and_normals(corners)
     crossing = np.abs((normals[target] * normals[other]).sum(axis=1)) < 1 - PARALLEL
     target, other = target[crossing], other[crossing]
-    size = longest_edges(corners)
     heights = np.einsum("kcx,kx->kc", corners[other] - corners[target][:, :1], normals[target])
     heights[np.abs(heights) <= CONTACT_TOLERANCE * size[target][:, None]] = 0
     meets = np.flatnonzero((heights.min(axis=1) <= 0) & (heights.max(axis=1) >= 0))
@@ -81,36 +86,46 @@ def _plane_sections(triangles: np.ndarray, heights: np.ndarray):
 
 def _length_inside(triangles: np.ndarray, normals: np.ndarray, start: np.ndarray, end: np.ndarray,
                    tolerance: np.ndarray) -> np.ndarray:
-    """(k,) how long each segment runs inside its triangle (its parameter range clipped to the
-    triangle's three inner half-planes), or 0 where its line does not separate the triangle's
-    corners by more than ``tolerance`` or it runs inside for no more than that."""
-    direction = end - start
-    across = np.cross(normals, direction)
+    """(k,) how long each segment runs inside its triangle, or 0 where its line does not separate
+    the triangle's corners by more than ``tolerance`` or it runs inside for no more than that."""
+    across = np.cross(normals, end - start)
     across /= np.maximum(np.linalg.norm(across, axis=1, keepdims=True), np.finfo(float).tiny)
     side = np.einsum("kcx,kx->kc", triangles - start[:, None], across)
     separates = (side.min(axis=1) < -tolerance) & (side.max(axis=1) > tolerance)
+    length = _run_inside(triangles, np.full(len(triangles), 3), normals, start, end, tolerance)
+    return np.where(separates & (length > tolerance), length, 0.0)
+
+
+def _run_inside(polygons: np.ndarray, sizes: np.ndarray, normals: np.ndarray, start: np.ndarray, end: np.ndarray,
+                tolerance: np.ndarray) -> np.ndarray:
+    """(k,) how long each segment from ``start`` to ``end`` (k, 3) runs inside its convex polygon
+    (k, V, 3) of ``sizes`` (k,) corners, counter-clockwise about ``normals`` (k, 3), grown by
+    ``tolerance`` (k,): its parameter range clipped to the polygon's inner half-planes."""
+    direction = end - start
     low, high = np.zeros(len(start)), np.ones(len(start))
-    for i in range(3):
-        edge = triangles[:, (i + 1) % 3] - triangles[:, i]
-        inward = np.cross(normals, edge)
+    width = polygons.shape[1]
+    for i in range(width):
+        used = i < sizes
+        following = np.take_along_axis(polygons, np.where(i + 1 < sizes, i + 1, 0)[:, None, None], axis=1)[:, 0]
+        inward = np.cross(normals, following - polygons[:, i])
         inward /= np.maximum(np.linalg.norm(inward, axis=1, keepdims=True), np.finfo(float).tiny)
-        at_start = np.einsum("kx,kx->k", start - triangles[:, i], inward) + tolerance
+        at_start = np.einsum("kx,kx->k", start - polygons[:, i], inward) + tolerance
         rate = np.einsum("kx,kx->k", direction, inward)
         parallel = np.abs(rate) < 1e-300
         with np.errstate(divide="ignore", invalid="ignore"):
             bound = np.where(parallel, 0.0, -at_start / np.where(parallel, 1.0, rate))
-        low = np.where(~parallel & (rate > 0), np.maximum(low, bound), low)
-        high = np.where(~parallel & (rate < 0), np.minimum(high, bound), high)
-        high = np.where(parallel & (at_start < 0), -np.inf, high)
-    length = (high - low) * np.linalg.norm(direction, axis=1)
-    return np.where(separates & (length > tolerance), length, 0.0)
+        low = np.where(used & ~parallel & (rate > 0), np.maximum(low, bound), low)
+        high = np.where(used & ~parallel & (rate < 0), np.minimum(high, bound), high)
+        high = np.where(used & parallel & (at_start < 0), -np.inf, high)
+    return np.maximum(high - low, 0.0) * np.linalg.norm(direction, axis=1)
 
 
 def _cut(corners: np.ndarray, target: np.ndarray, start: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Fan triangles (K, 3, 3) of the convex pieces of the triangles ``target`` (L,), sorted,
-    cut along the lines from ``start`` to ``end`` (L, 3), and the triangle of each. The pieces
-    of all triangles are split at once, one line of each triangle per round: polygons of up to
-    V corners padded to V."""
+    cut along the lines of the segments from ``start`` to ``end`` (L, 3), and the triangle of
+    each: each segment's line cuts the pieces the segment runs through. The pieces of all
+    triangles are split at once, one line of each triangle per round: polygons of up to V
+    corners padded to V."""
     _, normals = areas_and_normals(corners)
     tolerance = CONTACT_TOLERANCE * longest_edges(corners)
     triangles, first_line, line_count = np.unique(target, return_index=True, return_counts=True)
@@ -123,6 +138,10 @@ def _cut(corners: np.ndarray, target: np.ndarray, start: np.ndarray, end: np.nda
         line = first_line[slot[active]] + number
         positive, negative, split = _split(polygons[active], sizes[active], start[line], across[line],
                                            tolerance[target[line]])
+        # only the pieces the contact segment itself runs through: a line across the whole
+        # triangle would cut every piece, L lines into O(L^2) pieces
+        split &= _run_inside(polygons[active], sizes[active], normals[target[line]], start[line], end[line],
+                             tolerance[target[line]]) > tolerance[target[line]]
         width = max(polygons.shape[1], positive[0].shape[1], negative[0].shape[1])
         copies = np.ones(len(slot), dtype=np.int64)
         copies[active[split]] = 2

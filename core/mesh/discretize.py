@@ -33,6 +33,9 @@ MAX_LIGHT_DIVISIONS = 4
 # share of the patches (many small lights, or a scene that is mostly light): the split is bounded
 # by the scene, not by its number of lights.
 MAX_EMITTER_SHARE = 0.25
+# Triangles (or panels) whose longest edge is below this share of the patch size neither are cut
+# along contact lines nor cut others (``contacts.pieces``).
+SMALLEST_CUT = 0.25
 
 
 def light_divisions(pieces: np.ndarray) -> np.ndarray:
@@ -145,7 +148,8 @@ def _patches(scene: Scene, patch_size: float | None, cut_contacts: bool, hidden_
     if zero_area.all():
         raise ValueError("every triangle of the scene has zero area: there is nothing to light")
     if cut_contacts:
-        pieces, piece_triangle = contacts.pieces(corners, zero_area)
+        smallest = 0.0 if patch_size is None else SMALLEST_CUT * patch_size
+        pieces, piece_triangle = contacts.pieces(corners, zero_area, smallest)
     else:
         pieces, piece_triangle = corners, np.arange(len(corners))
     piece_degenerate = zero_area[piece_triangle] | degenerate(pieces)

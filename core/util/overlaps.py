@@ -54,10 +54,15 @@ def coplanar_overlap_pairs(corners: np.ndarray, owners: np.ndarray) -> tuple[np.
     return a[overlap], b[overlap]
 
 
-def touching_boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Pairs of triangles (k, 3, 3) whose bounding boxes, grown by CONTACT_TOLERANCE of the
-    triangle's size, touch: the candidates for meeting (each pair both ways, and each with
-    itself)."""
+def padded_boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest and highest corners (k, 3) of the bounding boxes of triangles (k, 3, 3), grown by
+    CONTACT_TOLERANCE of each triangle's size: what may meet a triangle lies in its box."""
     pad = (CONTACT_TOLERANCE * longest_edges(corners))[:, None]
-    low, high = corners.min(axis=1) - pad, corners.max(axis=1) + pad
+    return corners.min(axis=1) - pad, corners.max(axis=1) + pad
+
+
+def touching_boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs of triangles (k, 3, 3) whose ``padded_boxes`` touch: the candidates for meeting
+    (each pair both ways, and each with itself)."""
+    low, high = padded_boxes(corners)
     return spatial.overlapping_boxes(low, high, low, high)

@@ -1,5 +1,5 @@
-"""Which boxes of one set overlap those of another, and which points lie in which boxes: a
-uniform grid, not all pairs."""
+"""Which boxes of one set overlap those of another, and which points lie in which boxes: through
+grids, not all pairs."""
 
 from __future__ import annotations
 
@@ -9,13 +9,14 @@ import numpy as np
 
 from . import parallel
 
-# A box is listed in every grid cell it overlaps; one overlapping more than LARGE_CELLS cells is
-# tested against every box of the other set instead.
+# ``points_in_boxes`` lists a box in every grid cell it overlaps; one overlapping more than
+# LARGE_CELLS cells is tested against every point instead.
 LARGE_CELLS = 4096
-# Grid cells are this many times the median box size: boxes against boxes, twice (a box is listed
-# in few cells); points against boxes, half (each point falls in one cell, and smaller cells
-# test fewer boxes per point). Both chosen by timing the large scenes (docs/notes/experiments.md).
-BOX_CELL = 2.0
+# ``overlapping_boxes`` lists a box in a grid whose cells are between 1 / LISTED_CELLS and twice
+# that of its size: up to 5 x 5 x 5 cells (2 x 2 x 2 would put more boxes in each).
+LISTED_CELLS = 4.0
+# Grid cells of points against boxes are this many times the median box size: each point falls in
+# one cell, and smaller cells test fewer boxes per point (timed on the large scenes).
 POINT_CELL = 0.5
 # Candidate pairs made at once (about 50 bytes each): bounds the memory of a dense cell.
 PAIRS_PER_BLOCK = 1 << 22
@@ -28,27 +29,36 @@ EVERY_PAIR = 1 << 20
 def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray,
                       high_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Index pairs (i, j), each once, sorted, of axis-aligned boxes (corners (n, 3)) of a and b
-    that overlap or touch, through a grid (BOX_CELL)."""
+    that overlap or touch, through a grid per size (cells doubling from level to level): each box
+    is listed in the few cells of its size's grid it overlaps (``_levels``), and paired there with
+    every box no larger listed in the same cells; a pair counts in the one cell that holds the
+    lowest corner of the boxes' overlap. Boxes of every size cost alike: in one grid, a wall listed
+    in thousands of the small boxes' cells would meet each neighbour once per cell they share, and
+    tiny boxes crowded into one cell would each meet all the others."""
     empty = np.zeros(0, dtype=np.int64)
     if len(low_a) == 0 or len(low_b) == 0:
         return empty, empty
     if len(low_a) * len(low_b) <= EVERY_PAIR:
         return _every_pair(low_a, high_a, np.arange(len(low_a)), low_b, high_b, np.arange(len(low_b)))
-    sizes = np.concatenate([high_a - low_a, high_b - low_b]).max(axis=1)
     origin = np.minimum(low_a.min(axis=0), low_b.min(axis=0))
     spread = float((np.maximum(high_a.max(axis=0), high_b.max(axis=0)) - origin).max())
-    cell = _cell_size(sizes, spread, BOX_CELL)
-    boxes_a = _cells(low_a, high_a, origin, cell)
-    boxes_b = _cells(low_b, high_b, origin, cell)
-    large_a = np.flatnonzero(boxes_a[1].prod(axis=1) > LARGE_CELLS)
-    large_b = np.flatnonzero(boxes_b[1].prod(axis=1) > LARGE_CELLS)
-    small_a = np.setdiff1d(np.arange(len(low_a)), large_a)
-    small_b = np.setdiff1d(np.arange(len(low_b)), large_b)
-    parts = [_grid_pairs(boxes_a, small_a, boxes_b, small_b, (low_a, high_a, low_b, high_b)),
-             _every_pair(low_a, high_a, large_a, low_b, high_b, np.arange(len(low_b)))]
-    second, first = _every_pair(low_b, high_b, large_b, low_a, high_a, small_a)
-    parts.append((first, second))
-    keys = np.unique(np.concatenate([a * len(low_b) + b for a, b in parts]))
+    sizes_a, sizes_b = (high_a - low_a).max(axis=1), (high_b - low_b).max(axis=1)
+    base = _cell_size(np.concatenate([sizes_a, sizes_b]), spread, 1.0)
+    level_a, level_b = _levels(sizes_a, base, spread), _levels(sizes_b, base, spread)
+    jobs = []
+    for level in np.union1d(level_a, level_b):
+        cell = base * 2.0 ** int(level)
+        # b's boxes of this level against a's no larger, and a's of this level against b's smaller
+        jobs += [(low_a, high_a, np.flatnonzero(level_a <= level), low_b, high_b, np.flatnonzero(level_b == level),
+                  cell, False),
+                 (low_b, high_b, np.flatnonzero(level_b < level), low_a, high_a, np.flatnonzero(level_a == level),
+                  cell, True)]
+    blocks = [(block, job[7]) for job in jobs for block in _cell_pairs(*job[:7], origin)]
+    keys = [empty]
+    for (found, listed), swapped in zip(parallel.map_ordered(lambda block: block[0](), blocks),
+                                        (swapped for _, swapped in blocks)):
+        keys.append(listed * len(low_b) + found if swapped else found * len(low_b) + listed)
+    keys = np.sort(np.concatenate(keys))
     return keys // len(low_b), keys % len(low_b)
 
 
@@ -132,38 +142,52 @@ def _boxes_touch(low_a, high_a, first, low_b, high_b, second) -> np.ndarray:
     return ((low_a[first] <= high_b[second]) & (low_b[second] <= high_a[first])).all(axis=-1)
 
 
-def _grid_pairs(boxes_a, chosen_a, boxes_b, chosen_b, corners):
-    """The touching pairs among the chosen boxes, through the cells they share."""
-    empty = np.zeros(0, dtype=np.int64)
-    if len(chosen_a) == 0 or len(chosen_b) == 0:
-        return empty, empty
-    low_a, high_a, low_b, high_b = corners
-    cells_a, owner_a = _listings(boxes_a[0][chosen_a], boxes_a[1][chosen_a])
-    cells_b, owner_b = _listings(boxes_b[0][chosen_b], boxes_b[1][chosen_b])
-    shape = tuple(np.maximum(cells_a.max(axis=0), cells_b.max(axis=0)) + 1)
-    key_a = np.ravel_multi_index(cells_a.T, shape)
-    key_b = np.ravel_multi_index(cells_b.T, shape)
-    order = np.argsort(key_b, kind="stable")
-    key_b, owner_b = key_b[order], chosen_b[owner_b[order]]
-    owner_a = chosen_a[owner_a]
-    start = np.searchsorted(key_b, key_a, side="left")
-    count = np.searchsorted(key_b, key_a, side="right") - start
+def _levels(sizes: np.ndarray, base: float, spread: float) -> np.ndarray:
+    """(n,) the grid level of boxes of largest sides ``sizes`` (n,): the level l whose cells,
+    ``base`` x 2^l, are between a quarter and half the box (a box spans at most 5 cells per axis),
+    at least the level where the boxes' ``spread`` is 2^19 cells and at most where it is 1."""
+    lowest = np.floor(np.log2(spread / base)) - 19
+    with np.errstate(divide="ignore"):
+        level = np.ceil(np.log2(sizes / (LISTED_CELLS * base)))
+    return np.clip(level, lowest, np.ceil(np.log2(spread / base))).astype(np.int64)
+
+
+def _cell_pairs(low_q, high_q, queried, low_l, high_l, listed, cell: float, origin: np.ndarray):
+    """Blocks of work, each a function giving touching pairs (q, l) as index arrays, of boxes
+    ``queried`` and ``listed``, both listed in every cell of size ``cell`` they overlap: a pair
+    counts in the cell holding the lowest corner of the boxes' overlap, where both are listed."""
+    if len(queried) == 0 or len(listed) == 0:
+        return []
+    cells_l, owner_l = _listings(*_cells(low_l[listed], high_l[listed], origin, cell))
+    cells_q, owner_q = _listings(*_cells(low_q[queried], high_q[queried], origin, cell))
+    key_l, key_q = _cell_keys(cells_l), _cell_keys(cells_q)
+    order = np.argsort(key_l, kind="stable")
+    key_l, owner_l = key_l[order], listed[owner_l[order]]
+    owner_q = queried[owner_q]
+    start = np.searchsorted(key_l, key_q, side="left")
+    count = np.searchsorted(key_l, key_q, side="right") - start
     total = np.cumsum(count)
-    bounds, begin = [], 0
-    while begin < len(key_a):  # listings of a in blocks of at most PAIRS_PER_BLOCK candidate pairs
+
+    def block(chunk: slice) -> tuple[np.ndarray, np.ndarray]:
+        first = np.repeat(owner_q[chunk], count[chunk])
+        second = owner_l[np.repeat(start[chunk], count[chunk]) + ranks(count[chunk])]
+        corner = np.floor((np.maximum(low_q[first], low_l[second]) - origin) / cell).astype(np.int64)
+        keep = _boxes_touch(low_q, high_q, first, low_l, high_l, second) & \
+            (_cell_keys(corner) == np.repeat(key_q[chunk], count[chunk]))
+        return first[keep], second[keep]
+
+    blocks, begin = [], 0
+    while begin < len(key_q):  # at most PAIRS_PER_BLOCK candidate pairs at once
         end = max(begin + 1, int(np.searchsorted(total, (total[begin - 1] if begin else 0) + PAIRS_PER_BLOCK)))
-        bounds.append((begin, end))
+        blocks.append(lambda chunk=slice(begin, end): block(chunk))
         begin = end
+    return blocks
 
-    def block(bound: tuple[int, int]) -> np.ndarray:
-        chunk = slice(*bound)
-        first = np.repeat(owner_a[chunk], count[chunk])
-        second = owner_b[np.repeat(start[chunk], count[chunk]) + ranks(count[chunk])]
-        touch = _boxes_touch(low_a, high_a, first, low_b, high_b, second)
-        return np.unique(first[touch] * len(low_b) + second[touch])
 
-    keys = np.unique(np.concatenate([empty, *parallel.map_ordered(block, bounds)]))
-    return keys // len(low_b), keys % len(low_b)
+def _cell_keys(cells: np.ndarray) -> np.ndarray:
+    """(n,) int64 key of grid cells (n, 3), each coordinate in [0, 2^20] (``_cell_size``, ``_levels``)."""
+    side = np.int64((1 << 20) + 2)
+    return (cells[:, 0] * side + cells[:, 1]) * side + cells[:, 2]
 
 
 def _every_pair(low_a, high_a, chosen_a, low_b, high_b, chosen_b):
