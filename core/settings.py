@@ -12,7 +12,7 @@ import math
 from typing import Any, NamedTuple
 
 METHODS = ("hemicube", "raycast")
-SOLVERS = ("progressive", "jacobi", "gauss_seidel")
+SOLVERS = ("progressive", "jacobi", "gauss_seidel", "hierarchical")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -94,8 +94,8 @@ KNOBS: tuple[Knob, ...] = (
     Knob("method", str, "raycast", "How form factors are computed: exact point-to-patch factors times ray-cast "
          "visibility (raycast), or the classic half-cube of pixels (hemicube)", choices=METHODS),
     Knob("solver", str, "progressive", "How B = E + rho F B is solved: shooting the brightest patch first, "
-         "matrix-free (progressive), or iterating on the full matrix (jacobi, gauss_seidel: small scenes)",
-         choices=SOLVERS),
+         "matrix-free (progressive), iterating on the full matrix (jacobi, gauss_seidel: small scenes), or "
+         "gathering along links between clusters as fine as the light needs (hierarchical)", choices=SOLVERS),
     Knob("patch_size", float, None, "Longest patch edge: smaller patches integrate the light each surface "
          "receives more accurately, at a cost that grows with their number", "scene units", low=0, open="low",
          none="auto", none_means="the scene's extent / 8"),
@@ -115,6 +115,8 @@ KNOBS: tuple[Knob, ...] = (
          "(0: off, the ambient term instead); the emitters always shoot first", "rays", low=0, square=True,
          none="auto", none_means="64 from 50,000 triangles on, where shooting to the tolerance would take hours, "
          "else 0"),
+    Knob("link_tolerance", float, 0.01, "Hierarchical: a link is split while the light it carries is above this "
+         "share of the mean radiosity of the surfaces that do not emit", low=0, high=1, open="both"),
     Knob("ambient", bool, True, "Progressive: add an estimate of the light not yet shot as a uniform ambient term"),
     Knob("merge_flat", bool, True, "Solve flat regions of triangles smaller than the patch size on panels up to "
          "it, not triangle by triangle; colours are still evaluated at every vertex"),

@@ -47,6 +47,9 @@ def draw_advanced(layout, settings) -> None:
     sub.active = settings.use_max_shots
     sub.prop(settings, "max_shots", text="")
     column.prop(settings, "monte_carlo_rays")
+    row = layout.row()
+    row.active = settings.solver == "hierarchical"
+    row.prop(settings, "link_tolerance")
     layout.prop(settings, "ambient")
     layout.prop(settings, "merge_flat")
     layout.prop(settings, "two_sided")

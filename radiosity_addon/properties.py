@@ -66,6 +66,7 @@ class RadiositySettings(bpy.types.PropertyGroup):
         "progressive": ("Progressive", "Shoot the brightest patch first; memory grows with the scene"),
         "jacobi": ("Jacobi", "Iterate on the full matrix (small scenes)"),
         "gauss_seidel": ("Gauss-Seidel", "Iterate on the full matrix, in place (small scenes)"),
+        "hierarchical": ("Hierarchical", "Gather along links between clusters, as fine as the light needs"),
     }), default=KNOB["solver"].default))
     patch_size: bpy.props.FloatProperty(**knob_property(
         "patch_size", "Patch Size", "0: auto, the scene's extent / 8 (the Preview preset's)", default=0.0,
@@ -88,6 +89,8 @@ class RadiositySettings(bpy.types.PropertyGroup):
             (AUTO, "Auto", KNOB["monte_carlo_rays"].none_means),
             ("0", "Off", "The light not yet shot when the shots stop is added as the ambient term"),
         ] + [(str(n), str(n), f"{n} final-gather rays per vertex") for n in MONTE_CARLO_RAYS], default=AUTO))
+    link_tolerance: bpy.props.FloatProperty(**knob_property("link_tolerance", "Link Tolerance", min=1e-5, max=0.5,
+                                                            precision=4))
     ambient: bpy.props.BoolProperty(**knob_property("ambient", "Ambient Term"))
     merge_flat: bpy.props.BoolProperty(**knob_property("merge_flat", "Merge Flat Surfaces"))
     seed: bpy.props.IntProperty(**knob_property("seed", "Seed"))
@@ -135,6 +138,7 @@ class RadiositySettings(bpy.types.PropertyGroup):
             "refinement_levels": self.refinement_levels,
             "max_shots": self.max_shots if self.use_max_shots else None,
             "monte_carlo_rays": None if self.monte_carlo_rays == AUTO else int(self.monte_carlo_rays),
+            "link_tolerance": self.link_tolerance,
             "ambient": self.ambient,
             "merge_flat": self.merge_flat,
             "crease_angle": math.degrees(self.crease_angle),

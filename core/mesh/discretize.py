@@ -35,7 +35,7 @@ MAX_LIGHT_DIVISIONS = 4
 MAX_EMITTER_SHARE = 0.25
 # Triangles (or panels) whose longest edge is below this share of the patch size neither are cut
 # along contact lines nor cut others (``contacts.pieces``).
-SMALLEST_CUT = 0.25
+SMALLEST_CUT = 0.0625
 
 
 def light_divisions(pieces: np.ndarray) -> np.ndarray:

@@ -14,7 +14,7 @@ from ..reconstruct import estimate
 from ..rays.visibility import Visibility
 from ..transport.arriving import ArrivingLight
 from ..util.progress import Stages
-from . import iterative, montecarlo
+from . import hierarchical, iterative, montecarlo
 from .progressive import ShootingState, progressive
 
 # A level that will be refined stops at this times the tolerance (no looser than 0.1).
@@ -51,6 +51,9 @@ def solve(light: ArrivingLight, patch_direct: np.ndarray, node_direct: np.ndarra
     patch starts out as if it emitted what it reflects of it), with ``node_direct`` (N, C) at
     the nodes; ``settings`` a resolved BakeSettings. Each of ``settings.refinement_levels``
     levels splits the patches where radiosity jumps and goes on from where the last one was."""
+    if settings.solver == "hierarchical":
+        radiosity, node_lighting, stats, extra = hierarchical.solve(light, patch_direct, node_direct, settings, stages)
+        return Solution(light, radiosity, node_lighting, None, None, stats | {"refinements": []}, extra)
     solver = _Levels(light, settings, node_direct)
     levels = settings.refinement_levels
     monte_carlo = settings.solver == "progressive" and bool(settings.monte_carlo_rays)

@@ -35,7 +35,7 @@ import numpy as np
 from ..mesh.discretize import Discretization
 from ..rays.visibility import Visibility
 from ..util import parallel, rows
-from ..util.geometry import barycentric, tangent_frames
+from ..util.geometry import barycentric, cosine_directions, uniform_points
 from ..util.progress import Report, quiet
 from ..util.spatial import ranks
 
@@ -77,25 +77,6 @@ class Gathered:
             return Gathered(np.zeros((0, channels)), np.zeros((0, channels)))
         return Gathered(np.concatenate([part.light for part in parts]),
                         np.concatenate([part.standard_error for part in parts]))
-
-
-def cosine_directions(normals: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """(n, 3) unit directions about unit ``normals`` (n, 3) from points ``uv`` (n, 2) of the
-    unit square, distributed as cos(theta) / pi when uv is uniform (Malley's method: a uniform
-    point of the unit disc, r = sqrt(u), phi = 2 pi v, lifted to the hemisphere)."""
-    radius = np.sqrt(uv[:, 0])
-    angle = 2 * np.pi * uv[:, 1]
-    tangent, bitangent = tangent_frames(normals)
-    lift = np.sqrt(np.maximum(1.0 - uv[:, 0], 0.0))
-    return ((radius * np.cos(angle))[:, None] * tangent + (radius * np.sin(angle))[:, None] * bitangent
-            + lift[:, None] * normals)
-
-
-def uniform_points(corners: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """(n, 3) points of triangles ``corners`` (n, 3, 3), uniform in area for uniform ``uv``
-    (n, 2): (1 - sqrt(u)) a + sqrt(u) (1 - v) b + sqrt(u) v c."""
-    root = np.sqrt(uv[:, :1])
-    return (1 - root) * corners[:, 0] + root * (1 - uv[:, 1:]) * corners[:, 1] + root * uv[:, 1:] * corners[:, 2]
 
 
 def check_gather_rays(count: int) -> int:

@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.mark.parametrize("method", ["raycast", "hemicube"])
-@pytest.mark.parametrize("solver", ["progressive", "jacobi", "gauss_seidel"])
+@pytest.mark.parametrize("solver", ["progressive", "jacobi", "gauss_seidel", "hierarchical"])
 def test_every_combination_bakes_and_reports(method, solver):
     scene = lit_room()
     result = bake(scene, method, solver)
@@ -116,7 +116,8 @@ class Recorder:
 
 
 @pytest.mark.parametrize("method, solver", [("raycast", "progressive"), ("hemicube", "progressive"),
-                                            ("raycast", "jacobi"), ("hemicube", "gauss_seidel")])
+                                            ("raycast", "jacobi"), ("hemicube", "gauss_seidel"),
+                                            ("raycast", "hierarchical")])
 def test_progress_is_reported_often_and_reaches_one(method, solver):
     """A bake of about a second: progress rises from 0 to 1 with messages naming the stage.
     The contract is a call at least every 0.2 s of work; the bake aims at 0.1 s, so on a shared
@@ -129,11 +130,11 @@ def test_progress_is_reported_often_and_reaches_one(method, solver):
     assert all(0.0 <= f <= 1.0 for f in fractions)
     gaps = np.diff(times)
     assert np.percentile(gaps, 95) <= 0.2 and gaps.max() <= 0.5, (gaps.max(), messages[int(np.argmax(gaps)) + 1])
-    assert any("shooting" in m or "form factors" in m for m in messages)
+    assert any("shooting" in m or "form factors" in m or "linking" in m for m in messages)
 
 
 @pytest.mark.parametrize("cancel_at", [1, 2, 5, "done"])
-@pytest.mark.parametrize("solver", ["progressive", "jacobi"])
+@pytest.mark.parametrize("solver", ["progressive", "jacobi", "hierarchical"])
 def test_cancelling_at_any_call_raises_and_stops_there(solver, cancel_at):
     """Cancel at the first calls, or at the very last one (fraction 1.0): always BakeCancelled,
     and no further call after the one that said stop."""
@@ -157,5 +158,5 @@ def test_core_never_imports_bpy():
         "assert not bad, bad\n"
     )
     subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True)
-    sources = "\n".join(path.read_text() for path in (ROOT / "core").glob("*.py"))
+    sources = "\n".join(path.read_text() for path in (ROOT / "core").rglob("*.py"))
     assert "import bpy" not in sources and "mathutils" not in sources

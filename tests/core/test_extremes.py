@@ -21,7 +21,7 @@ from core.scene.lights import AreaLight, PointLight, SpotLight, SunLight
 from tests.core.scenes import box, lit_room, merge, quad, tetrahedron, uniform
 from tests.core.test_form_factor_closed_forms import ROTATION, SHIFT, c11
 
-SOLVERS = ("progressive", "jacobi", "gauss_seidel")
+SOLVERS = ("progressive", "jacobi", "gauss_seidel", "hierarchical")
 ONE_PATCH_PER_TRIANGLE = 100.0  # a patch size longer than every edge below
 
 
