@@ -32,12 +32,12 @@ bake: $(VENV)/.ready
 		--render build/cornell_box_baked.png
 
 # Each run goes ahead even when an earlier one failed; $(REPORT) fails the target if any did.
-CORE_TESTS = echo "== core tests"; $(PY) -m pytest tests/core tests/bench -q || failed="$$failed core";
+CORE_TESTS = echo "== core tests"; $(PY) -m pytest tests/core tests/bench tests/farm -q || failed="$$failed core";
 ADDON_TESTS = echo "== add-on tests, bpy 5.0.1"; $(PY) -m pytest tests/addon -q || failed="$$failed addon-bpy5.0.1"; \
 	echo "== add-on tests, bpy 4.2.0"; $(PY42) -m pytest tests/addon -q || failed="$$failed addon-bpy4.2.0";
 REPORT = if [ -n "$$failed" ]; then echo "FAILED:$$failed"; exit 1; fi
 
-## The whole test suite: the core tests and the benchmarks' (no Blender), then the add-on tests with bpy 5.0.1 and with
+## The whole test suite: the core tests, the benchmarks' and the farm job type's (no Blender), then the add-on tests with bpy 5.0.1 and with
 ## bpy 4.2.0, each in a pytest process of its own (bpy can be imported once per process)
 test: $(VENV)/.ready $(VENV42)/.ready
 	@failed=""; $(CORE_TESTS) $(ADDON_TESTS) $(REPORT)

@@ -52,14 +52,15 @@ def prepare(scene, depsgraph) -> Prepared:
                     settings.modified_topology == "COPY")
 
 
-def run_straight(prepared: Prepared, echo: bool = True):
-    """The core bake in one go, printing progress to the console every second when ``echo``."""
+def run_straight(prepared: Prepared, echo: bool = True, label: str = ""):
+    """The core bake in one go, printing progress to stderr at most every second when ``echo``,
+    each line ``radiosity: {label}{percent}%  {stage}``."""
     last = [0.0]
 
     def progress(fraction: float, message: str) -> None:
         if echo and time.perf_counter() - last[0] >= 1.0:
             last[0] = time.perf_counter()
-            print(f"radiosity: {100 * fraction:5.1f}%  {message}", file=sys.stderr, flush=True)
+            print(f"radiosity: {label}{100 * fraction:5.1f}%  {message}", file=sys.stderr, flush=True)
 
     extraction = prepared.extraction
     return bake(extraction.scene, progress=progress, **prepared.knobs)

@@ -1,12 +1,18 @@
 """``blender -b FILE -c radiosity``: its plain function and its exit codes, called through the
 bpy module as the registered command calls them (no Blender binary here)."""
 
+import json
 import os
+import tomllib
+from pathlib import Path
 
 import bpy
+import numpy as np
 import pytest
 
 from tests.addon.blender_scenes import corner_colours, diffuse_material, grid_object, light_object
+
+MANIFEST = tomllib.loads((Path(__file__).resolve().parents[2] / "blender_manifest.toml").read_text())
 
 
 @pytest.fixture
@@ -65,6 +71,9 @@ def test_overwrite_only_when_asked(cli, saved_scene):
     (["--output", "x.blend", "--monte-carlo-rays", "100"], "--monte-carlo-rays must be one of auto, 0, 16, 64"),
     (["--output", "x.blend", "--preset", "draft", "--tolerance", "0.1"], "--preset draft fixes --tolerance"),
     (["--output", "x.txt"], "must be a .blend file"),
+    (["--output", "x.blend", "--suffix", "_baked"], "leave out --output-dir and --suffix"),
+    (["--overwrite", "--output-dir", "baked"], "give either --overwrite or where to save"),
+    (["--render", "x.jpg"], "--render must be a .png file"),
     (["--input", "/nonexistent.blend", "--output", "x.blend"], "no such file"),
     (["--output", "x.blend", "--bogus"], "unrecognized arguments"),
 ])
@@ -144,9 +153,9 @@ def test_knobs_given_on_the_command_line_reach_the_core(cli, saved_scene, tmp_pa
     seen = {}
     original = cli.run_straight
 
-    def spy(prepared, echo=True):
+    def spy(prepared, **options):
         seen.update(prepared.knobs)
-        return original(prepared, echo)
+        return original(prepared, **options)
 
     monkeypatch.setattr(cli, "run_straight", spy)
     argv = ["--output", str(tmp_path / "baked.blend"), "-q", "--patch-size", "0.5", "--rays-per-form-factor", "4",
@@ -159,3 +168,101 @@ def test_knobs_given_on_the_command_line_reach_the_core(cli, saved_scene, tmp_pa
                     "max_shots": 7, "monte_carlo_rays": 16, "ambient": False, "merge_flat": False,
                     "crease_angle": pytest.approx(45.0), "refinement_levels": 1, "seed": 3, "method": "raycast",
                     "solver": "progressive", "link_tolerance": pytest.approx(0.02, rel=1e-7)}
+
+
+def _scene_file(path, grey: float) -> str:
+    """A saved file: a grey floor under a sun."""
+    bpy.ops.wm.read_homefile(use_factory_startup=True, use_empty=True)
+    grid_object("Floor", 2.0, 2, material=diffuse_material("Grey", (grey, grey, grey)))
+    light_object("Sun", "SUN", (0, 0, 5), 2.0)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return str(path)
+
+
+def test_three_files_in_one_command_one_broken(cli, tmp_path, capsys):
+    """Two good files (one reached through a glob) and one that is not a .blend file: the good
+    ones are baked and saved, the broken one is refused with Blender's reason, the summary says
+    so, the exit code is 2, and the JSON summary records each file."""
+    first = _scene_file(tmp_path / "levels" / "first.blend", 0.5)
+    second = _scene_file(tmp_path / "levels" / "more" / "second.blend", 0.8)
+    broken = tmp_path / "levels" / "broken.blend"
+    broken.write_bytes(b"this is not a blend file\n" * 10)
+    summary = tmp_path / "summary.json"
+    argv = ["--input", first, str(broken), str(tmp_path / "levels" / "more" / "*.blend"),
+            "--output-dir", str(tmp_path / "baked"), "--suffix", "_lit", "--preset", "draft",
+            "--summary", str(summary)]
+    assert cli.main(argv) == 2
+    out, err = capsys.readouterr()
+    assert out.strip().splitlines()[-1] == "radiosity: 3 files: 2 baked, 1 refused (broken.blend)"
+    assert f"[2/3] broken.blend: error: cannot open {broken}" in err
+    lines = (out + err).splitlines()
+    assert not any(line.startswith("Fra:") or "Saved: '" in line for line in lines)  # nothing a farm takes for a render
+
+    report = json.loads(summary.read_text())
+    assert report["exit_code"] == 2 and report["argv"] == argv and report["extension"] == MANIFEST["version"]
+    assert [(f["input"], f["status"]) for f in report["files"]] == [
+        (first, "baked"), (str(broken), "refused"), (second, "baked")]
+    for entry, grey in zip([report["files"][0], report["files"][2]], (0.5, 0.8)):
+        assert entry["output"] == str(tmp_path / "baked" / (os.path.basename(entry["input"])[:-6] + "_lit.blend"))
+        assert entry["stats"]["triangles"] == 8 and 0 < entry["stats"]["error_estimate"] < 0.1
+        bpy.ops.wm.open_mainfile(filepath=entry["output"])
+        _, colours = corner_colours(bpy.data.objects["Floor"])
+        # a sun of irradiance 2 W/m^2 straight down on a diffuse floor: B = rho E / pi
+        assert np.allclose(colours[:, :3], grey * 2.0 / np.pi, rtol=1e-3)
+    assert not (tmp_path / "baked" / "broken_lit.blend").exists()
+
+
+def test_an_unexpected_error_in_one_file_does_not_stop_the_others(cli, tmp_path, monkeypatch, capsys):
+    files = [_scene_file(tmp_path / f"{name}.blend", 0.5) for name in ("a", "b", "c")]
+    original = cli.prepare
+
+    def broken_on_b(scene, depsgraph):
+        if bpy.data.filepath.endswith("b.blend"):
+            raise RuntimeError("disk on fire")
+        return original(scene, depsgraph)
+
+    monkeypatch.setattr(cli, "prepare", broken_on_b)
+    assert cli.main(["--input", *files, "--suffix", "_baked", "-q"]) == 1
+    out, err = capsys.readouterr()
+    assert "disk on fire" in err and "[2/3] b.blend: unexpected error" in err
+    assert "3 files: 2 baked, 1 failed (b.blend)" in out
+    assert [os.path.exists(tmp_path / f"{name}_baked.blend") for name in "abc"] == [True, False, True]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--input", "a.blend", "b.blend", "--output", "x.blend"], "--output names one file but 2 are baked"),
+    (["--input", "a.blend", "b.blend", "--render", "x.png"], "names one picture but 2 files are baked"),
+    (["--input", "one/a.blend", "two/a.blend", "--output-dir", "baked"], "would both be saved to"),
+    (["--input", "a.blend", "--output-dir", "."], "would replace its input"),
+])
+def test_batch_arguments_are_checked_before_anything_is_baked(cli, tmp_path, monkeypatch, capsys, argv, message):
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(argv) == 2
+    error = capsys.readouterr().err.strip()
+    assert message in error and len(error.splitlines()) == 1
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_pattern_that_matches_nothing_fails_alone(cli, tmp_path, capsys):
+    good = _scene_file(tmp_path / "good.blend", 0.5)
+    missing = str(tmp_path / "nothing" / "*.blend")
+    assert cli.main(["--input", missing, good, "--suffix", "_baked", "-q"]) == 2
+    assert f"no such file: {missing}" in capsys.readouterr().err
+    assert os.path.exists(tmp_path / "good_baked.blend")
+
+
+def test_render_alone_puts_a_picture_beside_each_baked_file(cli, tmp_path, capsys):
+    files = []
+    for name in ("a", "b"):
+        _scene_file(tmp_path / f"{name}.blend", 0.5)
+        camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+        camera.location = (0, 0, 4)
+        bpy.context.scene.collection.objects.link(camera)
+        bpy.context.scene.camera = camera
+        bpy.context.scene.render.resolution_x = bpy.context.scene.render.resolution_y = 16
+        bpy.ops.wm.save_mainfile()
+        files.append(bpy.data.filepath)
+    assert cli.main(["--input", *files, "--suffix", "_baked", "--render", "-q"]) == 0
+    for name in ("a", "b"):
+        assert tuple(bpy.data.images.load(str(tmp_path / f"{name}_baked.png")).size) == (16, 16)

@@ -63,7 +63,9 @@ def package_zip(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def installed_package(package_zip, addon_module_name, extension_switch, tmp_path_factory) -> str:
-    """Installs the package into a user repository of its own and enables it; returns its module name."""
+    """Installs the package into a user repository of its own and enables it as a farm worker is
+    set up (farm/README.md): Blender's ``-c extension install-file --repo ID --enable FILE.zip``;
+    returns its module name."""
     extension_switch.disable(addon_module_name)
     repos = bpy.context.preferences.extensions.repos
     repo = repos.new(
@@ -74,10 +76,9 @@ def installed_package(package_zip, addon_module_name, extension_switch, tmp_path
     )
     module_name = f"bl_ext.{repo.module}.radiosity"
     try:
-        result = bpy.ops.extensions.package_install_files(
-            filepath=str(package_zip), repo=repo.module, enable_on_install=True
-        )
-        assert result == {'FINISHED'}
+        from bl_pkg import cli_extension
+
+        assert cli_extension(["install-file", "--repo", repo.module, "--enable", str(package_zip)]) == 0
         yield module_name
     finally:
         if module_name in bpy.context.preferences.addons:
