@@ -392,7 +392,7 @@ def plot(h: Headline, path: Path, header: dict[str, str]) -> None:
 
 
 # Marker of each of our methods x solvers: the solver's shape, filled for ray casting, open for the hemicube
-SOLVER_MARKERS = {"progressive": "o", "jacobi": "^", "gauss_seidel": "v"}
+SOLVER_MARKERS = {"progressive": "o", "jacobi": "^", "gauss_seidel": "v", "hierarchical": "s"}
 
 
 def _plot_panel(axes, h: Headline, against: str) -> None:
