@@ -285,7 +285,7 @@ def extract(path: Path) -> tuple[dict, np.ndarray, np.ndarray]:
 
     bpy, package = blender_with_extension()
     bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
-    extraction = package.radiosity_addon.extract.extract(bpy.context.evaluated_depsgraph_get())
+    extraction = package.radiosity_addon.baking.prepare(bpy.context.scene).extraction
     scene = extraction.scene
     if scene.lights:
         raise ValueError(f"{path.name} has lights, which only Blender's process can hold")

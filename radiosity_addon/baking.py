@@ -8,10 +8,13 @@ import sys
 import time
 from dataclasses import dataclass
 
+import bpy
+
 from ..core import bake
 from ..core.job import BakeJob
 from ..core.rays import default_backend
 from .extract import Extraction, extract
+from .rendered import read_as_rendered
 from .write import plan, write
 
 
@@ -20,6 +23,8 @@ class Prepared:
     """A bake ready to run: the extracted scene and the core's arguments."""
 
     extraction: Extraction
+    scene_name: str
+    view_layer_name: str
     knobs: dict
     attribute: str
     lighting_only: bool
@@ -36,19 +41,28 @@ class Outcome:
     written: list[str]
 
 
-def prepare(scene, depsgraph) -> Prepared:
-    """Settings of ``scene.radiosity`` and the evaluated scene; ValueError for bad input."""
+def prepare(scene, view_layer=None) -> Prepared:
+    """Settings of ``scene.radiosity`` and the scene as a render of ``view_layer`` (default: the
+    context's) sees it; ValueError for bad input."""
     settings = scene.radiosity
     attribute = settings.attribute_name.strip()
     if not attribute:
         raise ValueError("the output attribute name is empty")
-    extraction = extract(depsgraph, settings.two_sided, shading_normals=settings.vertex_normals == "SHADING")
+    shading_normals = settings.vertex_normals == "SHADING"
+    view_layer = view_layer or bpy.context.view_layer
+    receivers = None
+    if settings.selected_only:
+        receivers = {obj.name for obj in view_layer.objects if obj.select_get(view_layer=view_layer)}
+        if not receivers:
+            raise ValueError("Selected Only is on but no object is selected")
+    extraction = read_as_rendered(scene, view_layer, lambda depsgraph: extract(
+        depsgraph, settings.two_sided, shading_normals, receivers))
     knobs = settings.core_arguments(extraction.scene.extent)
     if default_backend() != "embree":
         extraction.notes.append("Embree is not available here: rays are traced by the slower NumPy ray caster")
     # fail early, before any work, on targets that cannot be written
     plan(extraction.targets, attribute, settings.modified_topology == "COPY")
-    return Prepared(extraction, knobs, attribute, settings.output == "LIGHTING",
+    return Prepared(extraction, scene.name, view_layer.name, knobs, attribute, settings.output == "LIGHTING",
                     settings.modified_topology == "COPY")
 
 
@@ -66,11 +80,12 @@ def run_straight(prepared: Prepared, echo: bool = True, label: str = ""):
     return bake(extraction.scene, progress=progress, **prepared.knobs)
 
 
-def finish(prepared: Prepared, result, depsgraph) -> Outcome:
+def finish(prepared: Prepared, result) -> Outcome:
     """Write the result (all meshes or none) and describe the bake."""
     targets, notes = plan(prepared.extraction.targets, prepared.attribute, prepared.copy_changed)
     colours = result.corner_lighting if prepared.lighting_only else result.corner_colors
-    written = write(targets, colours, prepared.attribute, depsgraph)
+    scene = bpy.data.scenes[prepared.scene_name]
+    written = write(targets, colours, prepared.attribute, scene, scene.view_layers[prepared.view_layer_name])
     return Outcome(describe(result.stats, len(written), prepared), prepared.extraction.notes + notes, written)
 
 

@@ -146,10 +146,9 @@ def _bake(item: Plan, preset: str | None, lighting_only: bool, attribute: str | 
     source = bpy.data.filepath
     scene = bpy.context.scene
     _apply(scene.radiosity, preset, knobs, lighting_only, attribute)
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    prepared = prepare(scene, depsgraph)
+    prepared = prepare(scene)
     result = run_straight(prepared, echo=not quiet, label=label)
-    outcome = finish(prepared, result, depsgraph)
+    outcome = finish(prepared, result)
     scene.radiosity.last_report = outcome.summary
     if item.output is not None:
         os.makedirs(os.path.dirname(os.path.abspath(item.output)), exist_ok=True)

@@ -1,7 +1,8 @@
 """The evaluated Blender scene -> ``core.Scene``, plus where each triangle corner's colour goes
 back (object, loop) and a note for everything approximated or skipped.
 
-Taken: mesh objects visible in renders (modifiers applied, instances included, world space),
+``depsgraph`` is the one a render evaluates (``rendered.read_as_rendered``), so what it holds is
+what renders. Taken: mesh objects (modifiers applied, instances included, world space),
 their materials (``materials``), point, spot, sun and area lights, and the world's background
 colour x strength as sky light.
 """
@@ -43,12 +44,16 @@ class _Builder:
         self.vertices: list[np.ndarray] = []
         self.triangles: list[np.ndarray] = []
         self.material: list[np.ndarray] = []
+        self.reflects: list[np.ndarray] = []  # (count,) bool per mesh: its object's Reflects Light
+        self.emits: list[np.ndarray] = []
+        self.instances: dict[str, int] = {}  # instancer name: mesh instances it made
         self.corner_normals: list[np.ndarray] = []
         self.surfaces: list[Surface] = []
         self.surface_index: dict[str, int] = {}
         self.targets: list[MeshTarget] = []
         self.notes: list[str] = []
         self.lights: list = []
+        self.receivers: set[str] | None = None
         self.vertex_count = 0
         self.triangle_count = 0
 
@@ -62,17 +67,21 @@ class _Builder:
         return self.surface_index[key]
 
 
-def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True) -> Extraction:
+def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True,
+            receivers: set[str] | None = None) -> Extraction:
     """Read ``depsgraph`` (evaluated) into an Extraction; ValueError if nothing can be baked.
     With ``shading_normals`` the scene carries each corner's normal (Shade Flat / Smooth, sharp
     edges, custom normals: ``Mesh.corner_normals``), which then decide where vertex colours are
-    shared; without, the bake's crease angle does."""
+    shared; without, the bake's crease angle does. Each object's ``radiosity`` settings say
+    whether it receives colours, reflects and emits; ``receivers`` (object names), when given,
+    limits the colours to those objects."""
     builder = _Builder()
+    builder.receivers = receivers
     skipped: dict[str, list[str]] = {}
     for instance in depsgraph.object_instances:
         obj = instance.object
         original = obj.original
-        if original.hide_render or not (instance.is_instance or instance.show_self):
+        if not (instance.is_instance or instance.show_self):
             continue
         if obj.type == "LIGHT":
             try:
@@ -80,28 +89,40 @@ def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True) -> 
             except ValueError as error:
                 raise ValueError(f"light '{original.name}': {error}") from error
         elif obj.type == "MESH":
-            _add_mesh(builder, obj, np.array(instance.matrix_world), instance.is_instance)
+            instancer = (instance.parent.original.name if instance.parent else "an instancer") \
+                if instance.is_instance else None
+            _add_mesh(builder, obj, np.array(instance.matrix_world), instancer)
         elif obj.type in ("CURVE", "SURFACE", "FONT", "META", "CURVES", "POINTCLOUD", "VOLUME"):
             skipped.setdefault(obj.type.lower(), []).append(original.name)
     for kind, names in skipped.items():
         builder.notes.append(f"{len(names)} {kind} object(s) skipped (only meshes are baked): {_names(names)}")
+    for instancer, count in builder.instances.items():
+        builder.notes.append(f"'{instancer}': its {count} mesh instance(s) light and shade the scene but get no "
+                             "colours, as their meshes belong to the instanced objects (Object > Apply > Make "
+                             "Instances Real to bake each)")
     if not builder.triangles:
         raise ValueError("there is no mesh visible in renders to bake")
+    if not builder.targets:
+        reason = "among the selected objects (Selected Only)" if receivers is not None else "in the scene"
+        raise ValueError(f"no mesh {reason} receives colours: check Receives Colours in Object Properties")
     world = depsgraph.scene.world
     sky = _world_colour(world, builder.notes) if world is not None else np.zeros(3)
     reflectance = np.array([s.reflectance for s in builder.surfaces])
     emission = np.array([s.emission for s in builder.surfaces])
     material = np.concatenate(builder.material)
     triangles = np.concatenate(builder.triangles)
+    reflects, emits = np.concatenate(builder.reflects), np.concatenate(builder.emits)
     scene = Scene(
-        np.concatenate(builder.vertices), triangles, reflectance[material], emission[material],
+        np.concatenate(builder.vertices), triangles, reflectance[material] * reflects[:, None],
+        emission[material] * emits[:, None],
         material=material, two_sided=np.full(len(triangles), two_sided), lights=builder.lights, sky=sky,
         corner_normals=np.concatenate(builder.corner_normals) if shading_normals else None,
     )
     return Extraction(scene, builder.targets, builder.notes)
 
 
-def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, is_instance: bool) -> None:
+def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, instancer: str | None) -> None:
+    """One evaluated mesh into ``builder``: ``instancer`` names the object that instanced it, if any."""
     mesh = obj.to_mesh()
     try:
         mesh.calc_loop_triangles()
@@ -125,12 +146,17 @@ def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, is_instance: bool) -> 
     builder.vertices.append(world)
     builder.triangles.append(corners + builder.vertex_count)
     builder.material.append(ids[np.clip(slots, 0, len(ids) - 1)])
+    original = obj.original
+    builder.reflects.append(np.full(count, original.radiosity.reflects))
+    builder.emits.append(np.full(count, original.radiosity.emits))
     start = builder.triangle_count
     builder.vertex_count += len(world)
     builder.triangle_count += count
-    if is_instance:
-        return  # lights and shades the others; its mesh belongs to the instanced object
-    original = obj.original
+    if instancer is not None:  # lights and shades the others; its mesh belongs to the instanced object
+        builder.instances[instancer] = builder.instances.get(instancer, 0) + 1
+        return
+    if not original.radiosity.receives or (builder.receivers is not None and original.name not in builder.receivers):
+        return
     changed = loop_count != len(original.data.loops)
     builder.targets.append(MeshTarget(original.name, original.data.name, start, builder.triangle_count, loops,
                                       loop_count, changed))

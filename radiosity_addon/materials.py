@@ -68,6 +68,10 @@ def _shader(node, name: str, notes: list[str]) -> Surface | None:
         return Surface(_colour(node.inputs["Base Color"], name, notes), emission * strength, ())
     if kind == "ShaderNodeBsdfDiffuse":
         return Surface(_colour(node.inputs["Color"], name, notes), np.zeros(3), ())
+    if kind == "ShaderNodeBsdfTransparent":
+        notes.append(f"material '{name}': Transparent BSDF baked as an opaque black surface (light passing "
+                     "through is not modelled yet)")
+        return _black()
     if kind == "ShaderNodeEmission":
         strength = _value(node.inputs["Strength"], name, notes)
         return Surface(np.zeros(3), _colour(node.inputs["Color"], name, notes) * strength, ())
@@ -95,6 +99,11 @@ def _note_non_diffuse(node, name: str, notes: list[str]) -> None:
     checks = [("Metallic", "metallic", 0.0), ("Transmission Weight", "transmission", 0.0),
               ("Transmission", "transmission", 0.0), ("Coat Weight", "coat", 0.0),
               ("Specular IOR Level", "specular", DEFAULT_SPECULAR_LEVEL), ("Specular", "specular", 0.5)]
+    alpha = node.inputs.get("Alpha")
+    if alpha is not None and (alpha.is_linked or alpha.default_value < 1.0 - SIGNIFICANT_SHARE):
+        amount = "textured" if alpha.is_linked else f"{alpha.default_value:.2f}"
+        notes.append(f"material '{name}': alpha {amount} baked as opaque (light passing through is not "
+                     "modelled yet)")
     for socket_name, label, baseline in checks:
         socket = node.inputs.get(socket_name)
         if socket is None:

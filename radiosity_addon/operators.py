@@ -42,7 +42,7 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
 
     def execute(self, context):
         try:
-            prepared = prepare(context.scene, context.evaluated_depsgraph_get())
+            prepared = prepare(context.scene, context.view_layer)
             result = run_straight(prepared, echo=bpy.app.background)
             return self._finish(context, prepared, result)
         except BakeCancelled:
@@ -56,7 +56,7 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
         if bpy.app.background or not self.options.is_invoke:
             return self.execute(context)
         try:
-            self._prepared = prepare(context.scene, context.evaluated_depsgraph_get())
+            self._prepared = prepare(context.scene, context.view_layer)
         except ValueError as error:
             self.report({"ERROR"}, f"Bake: {error}")
             return {"CANCELLED"}
@@ -101,7 +101,7 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
         context.workspace.status_text_set(None)
 
     def _finish(self, context, prepared, result):
-        outcome = finish(prepared, result, context.evaluated_depsgraph_get())
+        outcome = finish(prepared, result)
         for note in outcome.notes:
             self.report({"WARNING"}, note)
         self.report({"INFO"}, outcome.summary)

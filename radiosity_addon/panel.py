@@ -1,5 +1,6 @@
 """The Radiosity panel: in Render Properties beside Cycles' Bake panel, and in the 3D View's
-sidebar (tab "Radiosity"). Presets, the few knobs that matter, Bake and Clear."""
+sidebar (tab "Radiosity"). Presets, the few knobs that matter, Bake and Clear. In Object
+Properties, the part each object plays (receives, reflects, emits)."""
 
 from __future__ import annotations
 
@@ -25,6 +26,7 @@ def draw_settings(layout, settings) -> None:
             column.label(text=part)
     layout.prop(settings, "output")
     layout.prop(settings, "attribute_name")
+    layout.prop(settings, "selected_only")
     row = layout.row(align=True)
     row.scale_y = 1.4
     row.operator("radiosity.bake", icon="LIGHT_SUN")
@@ -104,5 +106,29 @@ class RADIOSITY_PT_sidebar_advanced(_InSidebar, _Advanced, bpy.types.Panel):
     bl_parent_id = "RADIOSITY_PT_sidebar"
 
 
-classes = (RADIOSITY_PT_render, RADIOSITY_PT_render_advanced, RADIOSITY_PT_sidebar, RADIOSITY_PT_sidebar_advanced)
+class RADIOSITY_PT_object(bpy.types.Panel):
+    """Object Properties: the part this object plays in the radiosity bake."""
+
+    bl_label = "Radiosity Bake"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "object"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and context.object.type == "MESH"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        column = layout.column(heading="Object")
+        settings = context.object.radiosity
+        for name in ("receives", "reflects", "emits"):
+            column.prop(settings, name)
+
+
+classes = (RADIOSITY_PT_render, RADIOSITY_PT_render_advanced, RADIOSITY_PT_sidebar, RADIOSITY_PT_sidebar_advanced,
+           RADIOSITY_PT_object)
 register, unregister = bpy.utils.register_classes_factory(classes)

@@ -123,6 +123,11 @@ class RadiositySettings(bpy.types.PropertyGroup):
         default="SKIP",
         description="What to do with meshes whose modifiers change their topology",
     )
+    selected_only: bpy.props.BoolProperty(
+        name="Selected Only", default=False,
+        description="Write colours only on the selected objects; the rest of the scene still lights and shades "
+        "them",
+    )
     last_report: bpy.props.StringProperty(name="Last Bake", default="", description="What the last bake did")
 
     def knobs(self) -> dict:
@@ -174,16 +179,36 @@ class RadiositySettings(bpy.types.PropertyGroup):
         return knobs
 
 
-classes = (RadiositySettings,)
+class RadiosityObjectSettings(bpy.types.PropertyGroup):
+    """``object.radiosity``: the part one object plays in the bake (all on by default)."""
+
+    receives: bpy.props.BoolProperty(
+        name="Receives Colours", default=True,
+        description="Write the baked colours on this object's mesh; off: it still lights and shades the others",
+    )
+    reflects: bpy.props.BoolProperty(
+        name="Reflects Light", default=True,
+        description="Light arriving here is reflected on into the scene; off: it is absorbed (a black surface "
+        "for the others, though it still receives colours)",
+    )
+    emits: bpy.props.BoolProperty(
+        name="Emits Light", default=True,
+        description="Emissive materials on this object light the scene; off: their emission is ignored",
+    )
+
+
+classes = (RadiositySettings, RadiosityObjectSettings)
 
 
 def register() -> None:
     for cls in classes:
         bpy.utils.register_class(cls)
     bpy.types.Scene.radiosity = bpy.props.PointerProperty(type=RadiositySettings)
+    bpy.types.Object.radiosity = bpy.props.PointerProperty(type=RadiosityObjectSettings)
 
 
 def unregister() -> None:
+    del bpy.types.Object.radiosity
     del bpy.types.Scene.radiosity
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

@@ -10,6 +10,7 @@ import bpy
 import numpy as np
 
 from .extract import MeshTarget
+from .rendered import read_as_rendered
 
 
 class WriteError(ValueError):
@@ -24,6 +25,11 @@ def plan(targets: list[MeshTarget], attribute: str, copy_changed: bool) -> tuple
         obj = bpy.data.objects.get(target.object_name)
         if obj is None or obj.type != "MESH":
             raise WriteError(f"object '{target.object_name}' is gone or no longer a mesh; bake again")
+        library = obj.library or obj.data.library
+        if library is not None:
+            raise WriteError(f"object '{target.object_name}' has its mesh linked from {library.filepath}: colours "
+                             "written to it would be lost on saving. Make it local (Object > Relations > Make "
+                             "Local > Selected Objects and Data), or exclude it from renders")
         if target.topology_changed and not copy_changed:
             notes.append(f"object '{target.object_name}': its modifiers change the topology; it took part in "
                          "the lighting but got no colours (choose 'Bake Applied Copy' to keep them)")
@@ -47,15 +53,19 @@ def plan(targets: list[MeshTarget], attribute: str, copy_changed: bool) -> tuple
     return chosen, notes
 
 
-def write(targets: list[MeshTarget], corner_colors: np.ndarray, attribute: str, depsgraph=None) -> list[str]:
+def write(targets: list[MeshTarget], corner_colors: np.ndarray, attribute: str, scene=None,
+          view_layer=None) -> list[str]:
     """Write each target's colours (corner_colors (T, 3, 3), float) into ``attribute``; targets
-    whose topology changed get an applied copy of their evaluated mesh (needs ``depsgraph``).
-    Returns the names of the objects written."""
+    whose topology changed get an applied copy of their mesh as ``view_layer`` of ``scene``
+    renders it. Returns the names of the objects written."""
+    changed = [target.object_name for target in targets if target.topology_changed]
+    applied = read_as_rendered(scene, view_layer, lambda depsgraph: _evaluated_meshes(changed, depsgraph)) \
+        if changed else {}
     written = []
     for target in targets:
         obj = bpy.data.objects[target.object_name]
         if target.topology_changed:
-            obj = _applied_copy(obj, depsgraph)
+            obj = _applied_copy(obj, applied[target.object_name])
         mesh = obj.data
         rgba = np.ones((target.loop_count, 4), dtype=np.float32)
         rgba[target.loops.ravel(), :3] = corner_colors[target.start:target.stop].reshape(-1, 3)
@@ -71,9 +81,13 @@ def write(targets: list[MeshTarget], corner_colors: np.ndarray, attribute: str, 
     return written
 
 
-def _applied_copy(obj, depsgraph):
-    """A new object beside ``obj`` holding its evaluated mesh (modifiers applied), none of them."""
-    mesh = bpy.data.meshes.new_from_object(obj.evaluated_get(depsgraph))
+def _evaluated_meshes(names: list[str], depsgraph) -> dict:
+    """{object name: a new mesh of its evaluated geometry (modifiers applied)} in ``depsgraph``."""
+    return {name: bpy.data.meshes.new_from_object(bpy.data.objects[name].evaluated_get(depsgraph)) for name in names}
+
+
+def _applied_copy(obj, mesh):
+    """A new object beside ``obj`` holding ``mesh``, its evaluated mesh (modifiers applied)."""
     mesh.name = f"{obj.data.name} baked"
     copy = bpy.data.objects.new(f"{obj.name} baked", mesh)
     copy.matrix_world = obj.matrix_world

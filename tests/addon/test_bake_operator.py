@@ -92,7 +92,7 @@ def test_cancel_at_any_stage_changes_nothing(addon, room):
     baking = addon.radiosity_addon.baking
     before = {obj.name: attribute_names(obj) for obj in bpy.data.objects if obj.type == "MESH"}
     for slices in (0, 1, 3, 6):
-        prepared = baking.prepare(bpy.context.scene, bpy.context.evaluated_depsgraph_get())
+        prepared = baking.prepare(bpy.context.scene)
         job = prepared.job()
         for _ in range(slices):
             assert not job.step(0.0)
@@ -136,8 +136,8 @@ def test_shared_mesh_is_written_once_with_a_note(addon):
     bpy.context.scene.collection.objects.link(second)
     light_object("Sun", "SUN", (0, 0, 5), 2.0)
     baking = addon.radiosity_addon.baking
-    prepared = baking.prepare(bpy.context.scene, bpy.context.evaluated_depsgraph_get())
-    outcome = baking.finish(prepared, baking.run_straight(prepared, echo=False), bpy.context.evaluated_depsgraph_get())
+    prepared = baking.prepare(bpy.context.scene)
+    outcome = baking.finish(prepared, baking.run_straight(prepared, echo=False))
     assert len(outcome.written) == 1 and "Radiosity" in first.data.color_attributes
     assert any("shared by" in note for note in outcome.notes)
 
@@ -145,19 +145,19 @@ def test_shared_mesh_is_written_once_with_a_note(addon):
 @pytest.mark.parametrize("policy", ["SKIP", "COPY"])
 def test_a_modifier_that_changes_topology(addon, policy):
     floor = grid_object("Floor", 2.0, 2, material=diffuse_material("Grey", (0.5, 0.5, 0.5)))
-    floor.modifiers.new("Subdivide", "SUBSURF").levels = 1
+    subdivide = floor.modifiers.new("Subdivide", "SUBSURF")
+    subdivide.levels, subdivide.render_levels = 1, 2  # a render subdivides twice: so does the bake
     light_object("Sun", "SUN", (0, 0, 5), 2.0)
     bpy.context.scene.radiosity.modified_topology = policy
     baking = addon.radiosity_addon.baking
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    prepared = baking.prepare(bpy.context.scene, depsgraph)
-    outcome = baking.finish(prepared, baking.run_straight(prepared, echo=False), depsgraph)
+    prepared = baking.prepare(bpy.context.scene)
+    outcome = baking.finish(prepared, baking.run_straight(prepared, echo=False))
     if policy == "SKIP":
         assert outcome.written == [] and "Radiosity" not in floor.data.color_attributes
         assert any("change the topology" in note for note in outcome.notes)
     else:
         copy = bpy.data.objects[outcome.written[0]]
-        assert copy is not floor and len(copy.data.loops) == 4 * len(floor.data.loops)
+        assert copy is not floor and len(copy.data.loops) == 16 * len(floor.data.loops)
         _, colours = corner_colours(copy)
         np.testing.assert_allclose(colours[:, :3], 0.5 * 2.0 / np.pi, rtol=EXACT)
         assert floor.hide_render
@@ -186,8 +186,8 @@ def test_report_names_every_approximation(addon):
     bpy.context.scene.collection.objects.link(curve)
     light_object("Sun", "SUN", (0, 0, 5), 2.0)
     baking = addon.radiosity_addon.baking
-    prepared = baking.prepare(bpy.context.scene, bpy.context.evaluated_depsgraph_get())
-    outcome = baking.finish(prepared, baking.run_straight(prepared, echo=False), bpy.context.evaluated_depsgraph_get())
+    prepared = baking.prepare(bpy.context.scene)
+    outcome = baking.finish(prepared, baking.run_straight(prepared, echo=False))
     notes = "\n".join(outcome.notes)
     assert "'Metal': metallic 1.00 is not diffuse" in notes
     assert "'Painted': textured Base Color averaged over image 'paint'" in notes
@@ -358,7 +358,7 @@ def test_monte_carlo_auto_finishes_when_the_emitters_reflect(addon):
     shots = re.search(r", ([\d,]+) shots? then Monte Carlo \(64 rays per vertex\)", settings.last_report)
     assert shots, settings.last_report
     core = addon.core
-    prepared = addon.radiosity_addon.baking.prepare(bpy.context.scene, bpy.context.evaluated_depsgraph_get())
+    prepared = addon.radiosity_addon.baking.prepare(bpy.context.scene)
     scene = prepared.extraction.scene
     knobs = core.settings.resolved(core.BakeSettings(**prepared.knobs), scene.extent, len(scene.triangles))
     mesh, _ = core.mesh.discretize.discretised(scene, knobs.patch_size, np.radians(knobs.crease_angle), knobs.merge_flat)

@@ -217,10 +217,10 @@ def test_an_unexpected_error_in_one_file_does_not_stop_the_others(cli, tmp_path,
     files = [_scene_file(tmp_path / f"{name}.blend", 0.5) for name in ("a", "b", "c")]
     original = cli.prepare
 
-    def broken_on_b(scene, depsgraph):
+    def broken_on_b(scene, view_layer=None):
         if bpy.data.filepath.endswith("b.blend"):
             raise RuntimeError("disk on fire")
-        return original(scene, depsgraph)
+        return original(scene, view_layer)
 
     monkeypatch.setattr(cli, "prepare", broken_on_b)
     assert cli.main(["--input", *files, "--suffix", "_baked", "-q"]) == 1
