@@ -15,7 +15,7 @@ from ..core.job import BakeJob
 from ..core.rays import default_backend
 from .extract import Extraction, extract
 from .rendered import read_as_rendered
-from .write import plan, write
+from .write import Storage, plan, write
 
 
 @dataclass
@@ -29,6 +29,7 @@ class Prepared:
     attribute: str
     lighting_only: bool
     copy_changed: bool
+    storage: Storage
 
     def job(self) -> BakeJob:
         return BakeJob(self.extraction.scene, **self.knobs)
@@ -63,7 +64,8 @@ def prepare(scene, view_layer=None) -> Prepared:
     # fail early, before any work, on targets that cannot be written
     plan(extraction.targets, attribute, settings.modified_topology == "COPY")
     return Prepared(extraction, scene.name, view_layer.name, knobs, attribute, settings.output == "LIGHTING",
-                    settings.modified_topology == "COPY")
+                    settings.modified_topology == "COPY",
+                    Storage(settings.color_type, settings.color_domain, settings.exposure, settings.tone))
 
 
 def run_straight(prepared: Prepared, echo: bool = True, label: str = ""):
@@ -85,7 +87,8 @@ def finish(prepared: Prepared, result) -> Outcome:
     targets, notes = plan(prepared.extraction.targets, prepared.attribute, prepared.copy_changed)
     colours = result.corner_lighting if prepared.lighting_only else result.corner_colors
     scene = bpy.data.scenes[prepared.scene_name]
-    written = write(targets, colours, prepared.attribute, scene, scene.view_layers[prepared.view_layer_name])
+    written = write(targets, colours, prepared.attribute, scene, scene.view_layers[prepared.view_layer_name],
+                    prepared.storage)
     return Outcome(describe(result.stats, len(written), prepared), prepared.extraction.notes + notes, written)
 
 

@@ -30,6 +30,9 @@ from .batch import BAKED, FAILED, REFUSED, FileResult, Plan, UsageError
 from .preview import render_colours
 
 COMMAND = "radiosity"
+# How the colour attribute stores the colours: scene.radiosity's property -> the option setting it.
+STORAGE_OPTIONS = {"color_type": "--color-type", "color_domain": "--color-domain", "exposure": "--exposure",
+                   "tone": "--tone"}
 # A bake's figures kept in the JSON summary.
 SUMMARY_STATS = ("triangles", "patches", "nodes", "lights")
 
@@ -62,6 +65,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--lighting-only", action="store_true", help="write the lighting, not the full radiosity")
     parser.add_argument("--attribute", metavar="NAME", help="colour attribute to write (default: the file's, "
                         "'Radiosity' when unset)")
+    for name, flag in STORAGE_OPTIONS.items():
+        prop = bpy.types.Scene.bl_rna.properties["radiosity"].fixed_type.properties[name]
+        if prop.type == "ENUM":
+            parser.add_argument(flag, choices=[item.identifier.lower() for item in prop.enum_items],
+                                help=f"{prop.description} (default: the file's)")
+        else:
+            parser.add_argument(flag, type=float, metavar="STOPS", help=f"{prop.description} (default: the file's)")
     add_knob_options(parser)
     return parser
 
@@ -76,8 +86,7 @@ def main(argv: list[str]) -> int:
                            options.render, bpy.data.filepath)
         knobs = given_knobs(options)
         _check_preset(options.preset, knobs)
-        settings = dict(preset=options.preset, lighting_only=options.lighting_only, attribute=options.attribute,
-                        knobs=knobs)
+        settings = dict(preset=options.preset, knobs=knobs, properties=_properties(options))
     except UsageError as error:
         print(f"{COMMAND}: error: {error}", file=sys.stderr)
         return 2
@@ -122,19 +131,20 @@ def _bake_reporting(item: Plan, settings: dict, label: str, quiet: bool) -> File
 
 
 def run(input: str | None = None, output: str | None = None, overwrite: bool = False, render: str | None = None,
-        preset: str | None = None, lighting_only: bool = False, attribute: str | None = None, quiet: bool = True,
-        knobs: dict | None = None) -> Outcome:
+        preset: str | None = None, knobs: dict | None = None, properties: dict | None = None,
+        quiet: bool = True) -> Outcome:
     """Bake the open (or ``input``) file's scene, with ``knobs`` (core knob names: None for
-    auto or no limit) over its settings, then save it to ``output`` (or over itself with
-    ``overwrite``) and render the colours to ``render``. ValueError for bad input; the open file
-    is not saved anywhere unless asked."""
+    auto or no limit) and ``properties`` (``scene.radiosity``'s own, such as ``output="LIGHTING"``
+    or ``color_type="BYTE_COLOR"``) over its settings, then save it to ``output`` (or over itself
+    with ``overwrite``) and render the colours to ``render``. ValueError for bad input; the open
+    file is not saved anywhere unless asked."""
     [item] = batch.plan([input], output, None, None, overwrite, render, bpy.data.filepath)
     _check_preset(preset, knobs or {})
-    outcome, _ = _bake(item, preset, lighting_only, attribute, knobs or {}, quiet)
+    outcome, _ = _bake(item, preset, knobs or {}, properties or {}, quiet)
     return outcome
 
 
-def _bake(item: Plan, preset: str | None, lighting_only: bool, attribute: str | None, knobs: dict, quiet: bool,
+def _bake(item: Plan, preset: str | None, knobs: dict, properties: dict, quiet: bool,
           label: str = "") -> tuple[Outcome, dict]:
     if item.input is not None:
         if not os.path.isfile(item.input):
@@ -145,7 +155,7 @@ def _bake(item: Plan, preset: str | None, lighting_only: bool, attribute: str | 
             raise UsageError(f"cannot open {item.input}: {str(error).strip().removeprefix('Error: ')}") from None
     source = bpy.data.filepath
     scene = bpy.context.scene
-    _apply(scene.radiosity, preset, knobs, lighting_only, attribute)
+    _apply(scene.radiosity, preset, knobs, properties)
     prepared = prepare(scene)
     result = run_straight(prepared, echo=not quiet, label=label)
     outcome = finish(prepared, result)
@@ -169,7 +179,19 @@ def _check_preset(preset: str | None, knobs: dict) -> None:
         raise UsageError(f"--preset {preset} fixes {KNOB[fixed[0]].flag}: leave it out, or use --preset custom")
 
 
-def _apply(settings, preset: str | None, knobs: dict, lighting_only: bool, attribute: str | None) -> None:
+def _properties(options: argparse.Namespace) -> dict:
+    """The ``scene.radiosity`` properties the command line sets (beyond the knobs)."""
+    properties = {"output": "LIGHTING"} if options.lighting_only else {}
+    if options.attribute is not None:
+        properties["attribute_name"] = options.attribute
+    for name in STORAGE_OPTIONS:
+        value = getattr(options, name)
+        if value is not None:
+            properties[name] = value.upper() if isinstance(value, str) else value
+    return properties
+
+
+def _apply(settings, preset: str | None, knobs: dict, properties: dict) -> None:
     """Command-line options onto ``scene.radiosity`` (so the saved file records them)."""
     if preset is not None:
         settings.preset = preset.upper()
@@ -180,10 +202,8 @@ def _apply(settings, preset: str | None, knobs: dict, lighting_only: bool, attri
             settings.set_knob(name, value)
         except ValueError as error:
             raise UsageError(str(error)) from None
-    if lighting_only:
-        settings.output = "LIGHTING"
-    if attribute is not None:
-        settings.attribute_name = attribute
+    for name, value in properties.items():
+        setattr(settings, name, value)
 
 
 _handle = None

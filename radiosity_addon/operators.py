@@ -126,6 +126,35 @@ class RADIOSITY_OT_clear(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class RADIOSITY_OT_use_in_materials(bpy.types.Operator):
+    """Multiply the base colour of the baked objects' materials by the baked colour attribute (for Material
+    Preview, and for the glTF exporter, which then writes it as COLOR_0); or undo that"""
+
+    bl_idname = "radiosity.use_in_materials"
+    bl_label = "Use Baked Colours in Materials"
+    bl_options = {"REGISTER", "UNDO"}
+
+    remove: bpy.props.BoolProperty(name="Remove", default=False,
+                                   description="Take the baked colours out of the materials again")
+
+    def execute(self, context):
+        from .wiring import baked_materials, unwire, wire
+
+        settings = context.scene.radiosity
+        materials = baked_materials(context.scene.objects, settings.attribute_name)
+        if self.remove:
+            changed = [material.name for material in materials if unwire(material)]
+            self.report({"INFO"}, f"Baked colours taken out of {len(changed)} material(s)")
+            return {"FINISHED"}
+        changed = [material.name for material in materials if wire(material, settings.attribute_name)]
+        if settings.output == "RADIOSITY":
+            self.report({"WARNING"}, "The bake is Full Radiosity, which already holds the base colour: bake Lighting "
+                        "Only to multiply it with the base colour")
+        self.report({"INFO"}, f"Baked colours multiply the base colour of {len(changed)} of {len(materials)} "
+                    "material(s)")
+        return {"FINISHED"}
+
+
 def _show_colours(context) -> None:
     """Solid-mode 3D views show colour attributes, so the result shows at once."""
     screen = getattr(context, "screen", None)
@@ -136,5 +165,5 @@ def _show_colours(context) -> None:
                 shading.color_type = "VERTEX"
 
 
-classes = (RADIOSITY_OT_bake, RADIOSITY_OT_clear)
+classes = (RADIOSITY_OT_bake, RADIOSITY_OT_clear, RADIOSITY_OT_use_in_materials)
 register, unregister = bpy.utils.register_classes_factory(classes)

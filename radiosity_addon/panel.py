@@ -31,6 +31,7 @@ def draw_settings(layout, settings) -> None:
     row.scale_y = 1.4
     row.operator("radiosity.bake", icon="LIGHT_SUN")
     row.operator("radiosity.clear", text="", icon="TRASH")
+    layout.operator("radiosity.use_in_materials", icon="NODE_MATERIAL")
     if settings.last_report:
         box = layout.box()
         box.label(text=settings.last_report, icon="INFO")
@@ -61,6 +62,13 @@ def draw_advanced(layout, settings) -> None:
     row.prop(settings, "crease_angle")
     layout.prop(settings, "modified_topology")
     layout.prop(settings, "seed")
+    column = layout.column(heading="Colour Attribute")
+    column.prop(settings, "color_type")
+    column.prop(settings, "color_domain")
+    column.prop(settings, "exposure")
+    row = column.row()
+    row.active = settings.color_type == "BYTE_COLOR"
+    row.prop(settings, "tone")
 
 
 class _InRenderProperties:

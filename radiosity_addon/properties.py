@@ -123,6 +123,37 @@ class RadiositySettings(bpy.types.PropertyGroup):
         default="SKIP",
         description="What to do with meshes whose modifiers change their topology",
     )
+    color_type: bpy.props.EnumProperty(
+        name="Colour Type",
+        items=[
+            ("FLOAT_COLOR", "Float", "32-bit float per channel, scene-linear: any brightness, as baked"),
+            ("BYTE_COLOR", "Byte", "8-bit sRGB per channel, as game engines and glTF take vertex colours: "
+             "exposure, then the tone curve, then clipped to 0..1"),
+        ],
+        default="FLOAT_COLOR", description="How the colour attribute stores the colours",
+    )
+    color_domain: bpy.props.EnumProperty(
+        name="Domain",
+        items=[
+            ("CORNER", "Face Corner", "A colour per face corner: colour may jump at creases and material borders"),
+            ("POINT", "Vertex", "A colour per vertex, the mean of its corners' (smooth across creases; what "
+             "some engines take)"),
+        ],
+        default="CORNER", description="Where the colour attribute stores the colours",
+    )
+    exposure: bpy.props.FloatProperty(
+        name="Exposure", default=0.0, soft_min=-10.0, soft_max=10.0, step=10,
+        description="Stops: the colours are multiplied by 2 to this power before they are stored",
+    )
+    tone: bpy.props.EnumProperty(
+        name="Tone",
+        items=[
+            ("CLIP", "Clip", "Byte colours: values above 1 are clipped"),
+            ("SOFT", "Soft", "Byte colours: x (1 + x / 16) / (1 + x) per channel (Reinhard's, white at 4), so "
+             "values up to 4 keep their differences"),
+        ],
+        default="CLIP", description="How byte colours fit the brighter values into 0..1",
+    )
     selected_only: bpy.props.BoolProperty(
         name="Selected Only", default=False,
         description="Write colours only on the selected objects; the rest of the scene still lights and shades "

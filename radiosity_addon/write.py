@@ -1,4 +1,5 @@
-"""Per-corner colours -> a FLOAT_COLOR, CORNER-domain colour attribute on each baked mesh.
+"""Per-corner colours -> a colour attribute on each baked mesh (float or byte, per corner or per
+vertex, ``Storage``).
 
 All meshes or none: every target is checked before the first one is written. Only the attribute
 of the configured name is created or replaced; other attributes are never touched.
@@ -6,9 +7,12 @@ of the configured name is created or replaced; other attributes are never touche
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import bpy
 import numpy as np
 
+from ..core.reconstruct.storage import exposed, vertex_means
 from .extract import MeshTarget
 from .rendered import read_as_rendered
 
@@ -53,11 +57,22 @@ def plan(targets: list[MeshTarget], attribute: str, copy_changed: bool) -> tuple
     return chosen, notes
 
 
+@dataclass(frozen=True)
+class Storage:
+    """How the colours are stored: ``data_type`` FLOAT_COLOR (scene-linear) or BYTE_COLOR (sRGB
+    bytes, fitted by ``tone``), ``domain`` CORNER or POINT, ``exposure`` in stops."""
+
+    data_type: str = "FLOAT_COLOR"
+    domain: str = "CORNER"
+    exposure: float = 0.0
+    tone: str = "CLIP"
+
+
 def write(targets: list[MeshTarget], corner_colors: np.ndarray, attribute: str, scene=None,
-          view_layer=None) -> list[str]:
-    """Write each target's colours (corner_colors (T, 3, 3), float) into ``attribute``; targets
-    whose topology changed get an applied copy of their mesh as ``view_layer`` of ``scene``
-    renders it. Returns the names of the objects written."""
+          view_layer=None, storage: Storage = Storage()) -> list[str]:
+    """Write each target's colours (corner_colors (T, 3, 3), float, scene-linear) into
+    ``attribute`` as ``storage`` says; targets whose topology changed get an applied copy of their
+    mesh as ``view_layer`` of ``scene`` renders it. Returns the names of the objects written."""
     changed = [target.object_name for target in targets if target.topology_changed]
     applied = read_as_rendered(scene, view_layer, lambda depsgraph: _evaluated_meshes(changed, depsgraph)) \
         if changed else {}
@@ -67,13 +82,20 @@ def write(targets: list[MeshTarget], corner_colors: np.ndarray, attribute: str, 
         if target.topology_changed:
             obj = _applied_copy(obj, applied[target.object_name])
         mesh = obj.data
-        rgba = np.ones((target.loop_count, 4), dtype=np.float32)
-        rgba[target.loops.ravel(), :3] = corner_colors[target.start:target.stop].reshape(-1, 3)
+        values = np.zeros((target.loop_count, 3))
+        values[target.loops.ravel()] = corner_colors[target.start:target.stop].reshape(-1, 3)
+        if storage.domain == "POINT":
+            loop_vertex = np.empty(target.loop_count, dtype=np.int32)
+            mesh.loops.foreach_get("vertex_index", loop_vertex)
+            values = vertex_means(values, loop_vertex, len(mesh.vertices))
+        values = exposed(values, storage.exposure, storage.tone if storage.data_type == "BYTE_COLOR" else None)
+        rgba = np.ones((len(values), 4), dtype=np.float32)
+        rgba[:, :3] = values
         old = mesh.color_attributes.get(attribute)
         if old is not None:
             mesh.color_attributes.remove(old)
-        layer = mesh.color_attributes.new(attribute, "FLOAT_COLOR", "CORNER")
-        layer.data.foreach_set("color", np.ascontiguousarray(rgba).ravel())
+        layer = mesh.color_attributes.new(attribute, storage.data_type, storage.domain)
+        layer.data.foreach_set("color", rgba.ravel())  # linear values: Blender encodes BYTE_COLOR as sRGB
         mesh.color_attributes.active_color = layer
         mesh.color_attributes.render_color_index = mesh.color_attributes.active_color_index
         mesh.update()
