@@ -167,7 +167,11 @@ def corrected_lighting(near: NearField, mesh: Discretization, radiosity: np.ndar
         transfer[c] = weights * reflectance[column, c]
     lighting = gathered.T
     for iteration in range(1, MAX_ITERATIONS + 1):
-        updated = base + np.stack([np.bincount(row, transfer[c] * lighting[c][column], count) for c in range(channels)])
+        # Light is never negative: where the gathered G holds less of the near patches than their
+        # exact form factors give them (a noisy Monte Carlo gather, whose rays see them otherwise),
+        # taking out the constant part can overshoot; the map clamped at zero is still a contraction.
+        updated = np.maximum(base + np.stack([np.bincount(row, transfer[c] * lighting[c][column], count)
+                                              for c in range(channels)]), 0.0)
         change = np.abs(updated - lighting).max()
         lighting = updated
         if change <= ITERATION_TOLERANCE * max(np.abs(lighting).max(), np.finfo(float).tiny):

@@ -12,7 +12,7 @@ from core.transport.analytic import point_to_triangle
 from core.mesh.discretize import discretize
 from core.solve.montecarlo import MIN_HITS, cosine_directions, gather, pooled, trace, uniform_points
 from core.rays.visibility import Visibility
-from tests.core.scenes import box, lit_room, merge, quad, uniform
+from tests.core.scenes import box, grid, lit_room, merge, quad, uniform
 
 
 def rays_of(mesh) -> Visibility:
@@ -274,3 +274,23 @@ def test_emitters_that_reflect_shoot_once_each_then_monte_carlo_carries_the_rest
     colors, exact = result.corner_colors.reshape(-1, 3), converged.corner_colors.reshape(-1, 3)
     error = np.sqrt(((colors - exact) ** 2).mean()) / np.abs(exact).mean()
     assert error <= result.stats["error_estimate"]["unshot"], (error, result.stats["error_estimate"])
+
+
+def test_no_light_is_negative_where_a_noisy_gather_meets_the_near_field():
+    """A column standing on a lit floor, baked with a 16-ray final gather: at the contact corners
+    the gather's estimate of the light from the patches next to a vertex can fall short of what
+    their exact near form factors say they send, and the near field's correction (which takes that
+    constant part out to put the patches' linear interpolant in) then went negative on two of these
+    six seeds. Light is never negative: every corner colour is >= 0 on each seed."""
+    s, h, a, b = 4.0, 2.0, 1.6, 2.4
+    column = merge(quad([a, a, 0], [0, 0, h], [b - a, 0, 0]), quad([b, a, 0], [0, 0, h], [0, b - a, 0]),
+                   quad([b, b, 0], [0, 0, h], [a - b, 0, 0]), quad([a, b, 0], [0, 0, h], [0, a - b, 0]),
+                   quad([a, a, h], [b - a, 0, 0], [0, b - a, 0]))
+    vertices, triangles = merge(grid([0, 0, 0], [s, 0, 0], [0, s, 0], 6), column,
+                                quad([0.5, 0.5, 3.0], [0, 1.0, 0], [1.0, 0, 0]))
+    count = len(triangles)
+    reflectance, emission = np.full((count, 3), 0.7), np.zeros((count, 3))
+    reflectance[-2:], emission[-2:] = 0.0, 20.0
+    scene = Scene(vertices, triangles, reflectance, emission, two_sided=np.ones(count, bool))
+    for seed in range(6):
+        assert bake(scene, monte_carlo_rays=16, seed=seed, patch_size=0.5).corner_colors.min() >= 0, seed
