@@ -46,6 +46,7 @@ class _Builder:
         self.material: list[np.ndarray] = []
         self.reflects: list[np.ndarray] = []  # (count,) bool per mesh: its object's Reflects Light
         self.emits: list[np.ndarray] = []
+        self.casts: list[np.ndarray] = []  # Object > Visibility > Ray Visibility > Shadow
         self.instances: dict[str, int] = {}  # instancer name: mesh instances it made
         self.corner_normals: list[np.ndarray] = []
         self.surfaces: list[Surface] = []
@@ -116,6 +117,7 @@ def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True,
         np.concatenate(builder.vertices), triangles, reflectance[material] * reflects[:, None],
         emission[material] * emits[:, None],
         material=material, two_sided=np.full(len(triangles), two_sided), lights=builder.lights, sky=sky,
+        casts_shadows=np.concatenate(builder.casts),
         corner_normals=np.concatenate(builder.corner_normals) if shading_normals else None,
     )
     return Extraction(scene, builder.targets, builder.notes)
@@ -149,6 +151,7 @@ def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, instancer: str | None)
     original = obj.original
     builder.reflects.append(np.full(count, original.radiosity.reflects))
     builder.emits.append(np.full(count, original.radiosity.emits))
+    builder.casts.append(np.full(count, getattr(original, "visible_shadow", True)))
     start = builder.triangle_count
     builder.vertex_count += len(world)
     builder.triangle_count += count

@@ -135,6 +135,8 @@ class RADIOSITY_PT_object(bpy.types.Panel):
         settings = context.object.radiosity
         for name in ("receives", "reflects", "emits"):
             column.prop(settings, name)
+        # Blender's own switch (Visibility > Ray Visibility > Shadow), which the bake follows as Cycles does
+        column.prop(context.object, "visible_shadow", text="Casts Shadows")
 
 
 classes = (RADIOSITY_PT_render, RADIOSITY_PT_render_advanced, RADIOSITY_PT_sidebar, RADIOSITY_PT_sidebar_advanced,

@@ -66,6 +66,7 @@ class Discretization:
     panel_corners : (Q, 3, 3) the corners of the panels patches come from.
     panel_node : (Q, 3) int, the node at each panel corner (``corner_node`` when the panels are
         the input triangles; a panel's corners are input vertices).
+    patch_casts : (P,) bool, which patches cast shadows (``Scene.casts_shadows``), or None: all.
     """
 
     patch_corners: np.ndarray
@@ -85,10 +86,16 @@ class Discretization:
     corner_node: np.ndarray
     panel_corners: np.ndarray
     panel_node: np.ndarray
+    patch_casts: np.ndarray | None = None
 
     @property
     def patch_count(self) -> int:
         return len(self.patch_areas)
+
+    @property
+    def front_casts(self) -> np.ndarray | None:
+        """(F,) which front patches cast shadows, or None: all (the ray layer's occluders)."""
+        return None if self.patch_casts is None else self.patch_casts[: self.front_patch_count]
 
     @property
     def node_count(self) -> int:
@@ -181,6 +188,7 @@ def _patches(scene: Scene, patch_size: float | None, cut_contacts: bool, hidden_
         patch_centroids=patch_corners.mean(axis=1),
         patch_reflectance=scene.reflectance[patch_triangle],
         patch_emission=scene.emission[patch_triangle],
+        patch_casts=None if scene.casts_shadows.all() else scene.casts_shadows[patch_triangle],
         patch_triangle=patch_triangle,
         patch_piece=patch_piece,
         front_patch_count=len(back_of_front),

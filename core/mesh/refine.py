@@ -136,6 +136,7 @@ def split(mesh: Discretization, chosen: np.ndarray) -> tuple[Discretization, np.
         patch_emission=mesh.patch_emission[origin],
         patch_triangle=mesh.patch_triangle[origin],
         patch_piece=mesh.patch_piece[origin],
+        patch_casts=None if mesh.patch_casts is None else mesh.patch_casts[origin],
         front_patch_count=len(front_parent),
         back_of_front=back_of_front,
     )

@@ -57,10 +57,12 @@ class Visibility:
     enclosing : (P,) bool, the triangles with every corner on or in front of their plane
         (``geometry.enclosing``, to ENCLOSING_TOLERANCE), as a room's walls:
         ``occluded_between_unit`` leaves them out.
+    casting : (P,) bool, the triangles that block light (``Scene.casts_shadows``; None: all):
+        the ``occluded`` queries see only those, ``first_hit_unit`` and ``nearest`` every one.
     """
 
     def __init__(self, corners: np.ndarray, backend: str | None = None, two_sided: np.ndarray | None = None,
-                 owners: np.ndarray | None = None) -> None:
+                 owners: np.ndarray | None = None, casting: np.ndarray | None = None) -> None:
         if backend is None:
             backend = default_backend()
         if backend not in BACKENDS:
@@ -89,12 +91,19 @@ class Visibility:
         # n . x of each triangle's plane in unit space, float64 (``raycast`` tells coplanar faces apart)
         self.unit_plane_offsets = (self.triangle_normals * unit_corners[:, 0].astype(np.float64)).sum(axis=1)
         self.enclosing = enclosing(np.asarray(corners, dtype=np.float64), ENCLOSING_TOLERANCE / self.scale)
-        inner = unit_corners[~self.enclosing]
+        casting = np.ones(len(unit_corners), dtype=bool) if casting is None else np.asarray(casting, bool)
         self._scene = _traced(backend, unit_corners)
-        self._inner = (None if len(inner) == 0 else self._scene if len(inner) == len(unit_corners)
-                       else _traced(backend, inner))
+        self._occluders = self._subset(unit_corners, casting)
+        self._inner = self._subset(unit_corners, casting & ~self.enclosing)
         self.rays_cast = 0
         self._count_lock = threading.Lock()
+
+    def _subset(self, unit_corners: np.ndarray, chosen: np.ndarray):
+        """A traced scene of the ``chosen`` triangles of ``unit_corners`` (the whole scene's when
+        it is all of them), or None when none is chosen."""
+        if not chosen.any():
+            return None
+        return self._scene if chosen.all() else _traced(self.backend, unit_corners[chosen])
 
     def to_unit(self, points: np.ndarray) -> np.ndarray:
         """(n, 3) float32: world-space points in the unit space rays are traced in."""
@@ -106,21 +115,21 @@ class Visibility:
         return np.ascontiguousarray(normals, dtype=np.float32)
 
     def occluded_unit(self, starts: np.ndarray, directions: np.ndarray, reach: np.ndarray) -> np.ndarray:
-        """(n,) bool: whether a triangle lies on each ray start + t direction, 0 <= t < reach,
-        from starts (n, 3) along directions (n, 3, any length), in unit space (see
+        """(n,) bool: whether a casting triangle lies on each ray start + t direction,
+        0 <= t < reach, from starts (n, 3) along directions (n, 3, any length), in unit space (see
         ``to_unit``); a ray with reach <= 0 is not blocked."""
-        return self._occluded(starts, directions, reach, self._scene)
+        return self._occluded(starts, directions, reach, self._occluders)
 
     def occluded_between_unit(self, starts: np.ndarray, directions: np.ndarray, reach: np.ndarray) -> np.ndarray:
         """``occluded_unit`` for rays from points on or in front of the triangles' surfaces
         (lifted off them to their front) to points of those surfaces: no ``enclosing`` triangle
         can block them, so none is traced (the same answers, fewer triangles: in a room, its
         walls)."""
-        if self._inner is None:
-            return np.zeros(len(starts), dtype=bool)
         return self._occluded(starts, directions, reach, self._inner)
 
     def _occluded(self, starts, directions, reach, scene) -> np.ndarray:
+        if scene is None:
+            return np.zeros(len(starts), dtype=bool)
         test = np.flatnonzero(reach > 0)
         if len(test) == len(starts):
             return self._run(starts, directions, reach, "OCCLUDED", scene) != -1

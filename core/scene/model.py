@@ -62,6 +62,10 @@ class Scene:
     two_sided : (T,) bool, optional; a two-sided triangle reflects and emits on both sides
         (as Cycles' Diffuse BSDF and Emission do); the back side is its own surface.
         Default: all one-sided.
+    casts_shadows : (T,) bool, optional; a triangle that does not cast shadows hides nothing
+        (light passes it on its way to anything behind) but still receives, reflects and emits,
+        as Cycles' Shadow ray visibility off (with the hemicube it still hides what is behind it).
+        Default: every triangle casts.
     corner_normals : (T, 3, 3) float, optional; the shading normal at each corner (Blender's
         corner normals: a flat face's own normal, a smooth face's vertex normal, split at sharp
         edges). Given, corners share a receiver node only where their normals agree, and the node
@@ -81,6 +85,7 @@ class Scene:
     two_sided: np.ndarray | None = field(default=None)
     corner_normals: np.ndarray | None = field(default=None)
     lights: tuple = ()
+    casts_shadows: np.ndarray | None = field(default=None)
     sky: np.ndarray | None = None
 
     def __post_init__(self) -> None:
@@ -131,6 +136,9 @@ class Scene:
         two_sided = np.zeros(count, bool) if self.two_sided is None else np.array(self.two_sided)
         if two_sided.dtype != bool or two_sided.shape != (count,):
             raise ValueError(f"two_sided must be a bool array of shape ({count},)")
+        casts_shadows = np.ones(count, bool) if self.casts_shadows is None else np.array(self.casts_shadows)
+        if casts_shadows.dtype != bool or casts_shadows.shape != (count,):
+            raise ValueError(f"casts_shadows must be a bool array of shape ({count},)")
         corner_normals = None if self.corner_normals is None else _unit_corner_normals(self.corner_normals, count)
         sky = np.zeros(3) if self.sky is None else np.array(self.sky, dtype=np.float64).reshape(-1)
         if sky.shape != (3,) or not np.isfinite(sky).all() or (sky < 0).any():
@@ -144,6 +152,7 @@ class Scene:
             ("emission", emission),
             ("material", np.array(material, dtype=np.int64)),
             ("two_sided", two_sided),
+            ("casts_shadows", casts_shadows),
             *([("corner_normals", corner_normals)] if corner_normals is not None else []),
         ):
             value.setflags(write=False)

@@ -202,7 +202,7 @@ class _Levels:
         visibility = engine.visibility
         if len(visibility.triangle_normals) != mesh.front_patch_count:  # refined: the rays' triangles must be the patches
             visibility = Visibility(mesh.patch_corners[: mesh.front_patch_count], two_sided=mesh.back_of_front >= 0,
-                                    owners=mesh.patch_triangle[: mesh.front_patch_count])
+                                    owners=mesh.patch_triangle[: mesh.front_patch_count], casting=mesh.front_casts)
         particles = int(mesh.patch_count * settings.monte_carlo_rays * montecarlo.PARTICLES_PER_RAY)
         future = stages.run("tracing particles", (0.0, 0.5), montecarlo.trace, mesh, visibility, state.unshot,
                             mesh.patch_reflectance[:, : self.channels], particles, settings.seed, timer="monte_carlo")

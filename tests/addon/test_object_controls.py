@@ -120,3 +120,17 @@ def test_transparency_is_named_as_baked_opaque(addon):
     assert "material 'Veil': alpha 0.40 baked as opaque (light passing through is not modelled yet)" in notes
     assert any(note.startswith("material 'Leaves': Transparent BSDF baked as an opaque black surface")
                for note in notes), notes
+
+
+def test_an_object_that_casts_no_shadow_lets_the_light_through():
+    """Object > Visibility > Ray Visibility > Shadow off, as Cycles reads it: a roof over a floor
+    under a straight-down sun no longer shades it. With the roof reflecting nothing (so that no
+    light goes back and forth between it and the floor), the floor is rho E / pi, as in the open."""
+    grey = diffuse_material("Grey", (0.5, 0.5, 0.5))
+    floor = grid_object("Floor", 2.0, 2, material=grey)
+    roof = grid_object("Roof", 4.0, 1, location=(0, 0, 1), material=grey)
+    light_object("Sun", "SUN", (0, 0, 5), 2.0)
+    roof.radiosity.reflects = False
+    assert np.allclose(baked_floor(floor), 0, atol=1e-6)
+    roof.visible_shadow = False
+    assert np.allclose(baked_floor(floor), 0.5 * 2.0 / np.pi, rtol=1e-3)
