@@ -15,7 +15,8 @@ import numpy as np
 
 from ..core import Scene
 from ..core.scene.lights import PointLight, SpotLight, SunLight, area_light
-from .materials import Surface, default_surface, material_surface
+from ..core.scene.textures import face_means, image_triangle_means
+from .materials import MAX_REFLECTANCE, Surface, default_surface, image_pixels, material_surface
 
 
 @dataclass
@@ -47,6 +48,9 @@ class _Builder:
         self.reflects: list[np.ndarray] = []  # (count,) bool per mesh: its object's Reflects Light
         self.emits: list[np.ndarray] = []
         self.casts: list[np.ndarray] = []  # Object > Visibility > Ray Visibility > Shadow
+        self.reflectance_maps: list[np.ndarray] = []  # (count, 3) per mesh, NaN where no SurfaceMap
+        self.emission_maps: list[np.ndarray] = []
+        self._pixels: dict[str, np.ndarray | None] = {}
         self.instances: dict[str, int] = {}  # instancer name: mesh instances it made
         self.corner_normals: list[np.ndarray] = []
         self.surfaces: list[Surface] = []
@@ -57,6 +61,12 @@ class _Builder:
         self.receivers: set[str] | None = None
         self.vertex_count = 0
         self.triangle_count = 0
+
+    def image_pixels(self, image) -> np.ndarray | None:
+        """An image's linear pixels (``materials.image_pixels``), read once per bake."""
+        if image.name not in self._pixels:
+            self._pixels[image.name] = image_pixels(image)
+        return self._pixels[image.name]
 
     def surface(self, material) -> int:
         key = material.name if material is not None else ""
@@ -113,9 +123,12 @@ def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True,
     material = np.concatenate(builder.material)
     triangles = np.concatenate(builder.triangles)
     reflects, emits = np.concatenate(builder.reflects), np.concatenate(builder.emits)
+    mapped_reflectance, mapped_emission = np.concatenate(builder.reflectance_maps), np.concatenate(builder.emission_maps)
+    reflectance = np.where(np.isnan(mapped_reflectance), reflectance[material],
+                           np.clip(mapped_reflectance, 0.0, MAX_REFLECTANCE))
+    emission = np.where(np.isnan(mapped_emission), emission[material], np.maximum(mapped_emission, 0.0))
     scene = Scene(
-        np.concatenate(builder.vertices), triangles, reflectance[material] * reflects[:, None],
-        emission[material] * emits[:, None],
+        np.concatenate(builder.vertices), triangles, reflectance * reflects[:, None], emission * emits[:, None],
         material=material, two_sided=np.full(len(triangles), two_sided), lights=builder.lights, sky=sky,
         casts_shadows=np.concatenate(builder.casts),
         corner_normals=np.concatenate(builder.corner_normals) if shading_normals else None,
@@ -125,6 +138,8 @@ def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True,
 
 def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, instancer: str | None) -> None:
     """One evaluated mesh into ``builder``: ``instancer`` names the object that instanced it, if any."""
+    materials = [slot.material for slot in obj.material_slots] or [None]
+    ids = np.array([builder.surface(material) for material in materials])
     mesh = obj.to_mesh()
     try:
         mesh.calc_loop_triangles()
@@ -133,21 +148,26 @@ def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, instancer: str | None)
             return
         corners = _get(mesh.loop_triangles, "vertices", count * 3, np.int64).reshape(-1, 3)
         loops = _get(mesh.loop_triangles, "loops", count * 3, np.int64).reshape(-1, 3)
-        slots = _get(mesh.loop_triangles, "material_index", count, np.int64)
+        slots = np.clip(_get(mesh.loop_triangles, "material_index", count, np.int64), 0, len(ids) - 1)
         positions = _get(mesh.vertices, "co", len(mesh.vertices) * 3, np.float64).reshape(-1, 3)
         loop_count = len(mesh.loops)
         loop_normals = _get(mesh.corner_normals, "vector", loop_count * 3, np.float64).reshape(-1, 3)
+        world = positions @ matrix[:3, :3].T + matrix[:3, 3]
+        faces = _get(mesh.loop_triangles, "polygon_index", count, np.int64)
+        areas = np.linalg.norm(np.cross(*(world[corners[:, 1:]] - world[corners[:, :1]]).transpose(1, 0, 2)), axis=1)
+        surfaces = [builder.surfaces[i] for i in ids]
+        builder.reflectance_maps.append(_mapped(builder, mesh, obj.original.name, [s.reflectance_map for s in surfaces],
+                                                slots, loops, areas, faces))
+        builder.emission_maps.append(_mapped(builder, mesh, obj.original.name, [s.emission_map for s in surfaces],
+                                             slots, loops, areas, faces))
     finally:
         obj.to_mesh_clear()
-    world = positions @ matrix[:3, :3].T + matrix[:3, 3]
     if np.linalg.det(matrix[:3, :3]) < 0:  # a mirroring transform turns the faces inside out
         corners, loops = corners[:, ::-1], loops[:, ::-1]
     builder.corner_normals.append(_world_normals(loop_normals[loops], matrix, world[corners]))
-    materials = [slot.material for slot in obj.material_slots] or [None]
-    ids = np.array([builder.surface(material) for material in materials])
     builder.vertices.append(world)
     builder.triangles.append(corners + builder.vertex_count)
-    builder.material.append(ids[np.clip(slots, 0, len(ids) - 1)])
+    builder.material.append(ids[slots])
     original = obj.original
     builder.reflects.append(np.full(count, original.radiosity.reflects))
     builder.emits.append(np.full(count, original.radiosity.emits))
@@ -163,6 +183,53 @@ def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, instancer: str | None)
     changed = loop_count != len(original.data.loops)
     builder.targets.append(MeshTarget(original.name, original.data.name, start, builder.triangle_count, loops,
                                       loop_count, changed))
+
+
+def _mapped(builder: _Builder, mesh, object_name: str, maps: list, slots: np.ndarray, loops: np.ndarray,
+            areas: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(T, 3) the colour each triangle's SurfaceMap gives it, its mean over the triangle's face
+    (``maps`` per material slot, ``slots`` (T,)); NaN where its material has none."""
+    values = np.full((len(slots), 3), np.nan)
+    for slot, surface_map in enumerate(maps):
+        chosen = np.flatnonzero(slots == slot)
+        if surface_map is None or len(chosen) == 0:
+            continue
+        per_triangle = _triangle_colours(builder, mesh, object_name, surface_map, loops[chosen])
+        if per_triangle is not None:
+            values[chosen] = face_means(per_triangle, areas[chosen], faces[chosen]) * surface_map.scale
+    return values
+
+
+def _triangle_colours(builder: _Builder, mesh, object_name: str, surface_map, loops: np.ndarray) -> np.ndarray | None:
+    """(t, 3) mean colour of ``surface_map`` over each triangle (corner loops ``loops`` (t, 3)),
+    None (with a note) when the mesh lacks what it reads."""
+    if surface_map.image is not None:
+        layer = (mesh.uv_layers.get(surface_map.uv_map) if surface_map.uv_map else
+                 next((uv for uv in mesh.uv_layers if uv.active_render), mesh.uv_layers.active))
+        pixels = builder.image_pixels(surface_map.image)
+        if layer is None or pixels is None:
+            missing = (f"pixels in image '{surface_map.image.name}'" if layer is not None else
+                       f"UV map '{surface_map.uv_map}'" if surface_map.uv_map else "UV map")
+            builder.notes.append(f"object '{object_name}': no {missing}, its texture's mean colour used")
+            return None
+        uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+        layer.uv.foreach_get("vector", uv)
+        return image_triangle_means(pixels, uv.reshape(-1, 2)[loops].astype(np.float64))
+    attributes = mesh.color_attributes
+    name = surface_map.attribute or (attributes[attributes.render_color_index].name if len(attributes) else "")
+    layer = attributes.get(name)
+    if layer is None or layer.domain not in ("CORNER", "POINT"):
+        builder.notes.append(f"object '{object_name}': no colour attribute '{name}' on its faces' corners or "
+                             "vertices, the node's colour used")
+        return None
+    colours = np.empty(len(layer.data) * 4, dtype=np.float32)
+    layer.data.foreach_get("color", colours)
+    colours = colours.reshape(-1, 4)[:, :3].astype(np.float64)
+    if layer.domain == "POINT":
+        loop_vertex = np.empty(len(mesh.loops), dtype=np.int32)
+        mesh.loops.foreach_get("vertex_index", loop_vertex)
+        colours = colours[loop_vertex]
+    return colours[loops].mean(axis=1)  # the mean of a linear interpolant over a triangle
 
 
 def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:

@@ -1,7 +1,9 @@
 """Blender materials -> diffuse reflectance and emission (linear RGB), with a note for every
 approximation. Understood: Principled BSDF (base colour, emission colour x strength), Diffuse
-BSDF, Emission, Mix and Add Shader of those, an Image Texture feeding a colour (its mean colour
-over the image). Anything else falls back to the material's viewport colour, with a warning."""
+BSDF, Emission, Mix and Add Shader of those. An Image Texture or a Color Attribute feeding a base
+or emission colour straight (not through a mix) is a ``SurfaceMap``, read per face by ``extract``;
+elsewhere an image counts as its mean colour. Anything else falls back to the material's viewport
+colour, with a warning."""
 
 from __future__ import annotations
 
@@ -19,10 +21,22 @@ SIGNIFICANT_SHARE = 0.01
 DEFAULT_SPECULAR_LEVEL = 0.5
 
 
+class SurfaceMap(NamedTuple):
+    """A colour that varies over a surface: ``image`` (a bpy Image) through UV map ``uv_map``, or
+    colour attribute ``attribute``; "" names the mesh's active render one. Times ``scale``."""
+
+    image: object | None
+    attribute: str | None
+    uv_map: str
+    scale: float = 1.0
+
+
 class Surface(NamedTuple):
-    reflectance: np.ndarray  # (3,)
+    reflectance: np.ndarray  # (3,), the mean where a map varies it
     emission: np.ndarray  # (3,)
     notes: tuple[str, ...]
+    reflectance_map: SurfaceMap | None = None
+    emission_map: SurfaceMap | None = None
 
 
 def default_surface() -> Surface:
@@ -46,14 +60,14 @@ def material_surface(material) -> Surface:
         notes.append(f"material '{name}': node setup not understood ({link.from_node.bl_idname}), "
                      "viewport colour used")
         surface = Surface(_rgb(material.diffuse_color), np.zeros(3), ())
-    return _clamped(Surface(surface.reflectance, surface.emission, tuple(notes)), name)
+    return _clamped(surface._replace(notes=tuple(notes)), name)
 
 
 def _clamped(surface: Surface, name: str) -> Surface:
     if (surface.reflectance <= MAX_REFLECTANCE).all():
         return surface
     note = f"material '{name}': reflectance {surface.reflectance.max():.4g} capped at {MAX_REFLECTANCE}"
-    return Surface(np.minimum(surface.reflectance, MAX_REFLECTANCE), surface.emission, surface.notes + (note,))
+    return surface._replace(reflectance=np.minimum(surface.reflectance, MAX_REFLECTANCE), notes=surface.notes + (note,))
 
 
 def _shader(node, name: str, notes: list[str]) -> Surface | None:
@@ -65,21 +79,26 @@ def _shader(node, name: str, notes: list[str]) -> Surface | None:
         emission = _colour(node.inputs["Emission Color" if "Emission Color" in node.inputs else "Emission"],
                            name, notes)
         strength = _value(node.inputs["Emission Strength"], name, notes) if "Emission Strength" in node.inputs else 1.0
-        return Surface(_colour(node.inputs["Base Color"], name, notes), emission * strength, ())
+        emission_socket = node.inputs["Emission Color" if "Emission Color" in node.inputs else "Emission"]
+        return Surface(_colour(node.inputs["Base Color"], name, notes), emission * strength, (),
+                       surface_map(node.inputs["Base Color"]), surface_map(emission_socket, strength))
     if kind == "ShaderNodeBsdfDiffuse":
-        return Surface(_colour(node.inputs["Color"], name, notes), np.zeros(3), ())
+        return Surface(_colour(node.inputs["Color"], name, notes), np.zeros(3), (), surface_map(node.inputs["Color"]))
     if kind == "ShaderNodeBsdfTransparent":
         notes.append(f"material '{name}': Transparent BSDF baked as an opaque black surface (light passing "
                      "through is not modelled yet)")
         return _black()
     if kind == "ShaderNodeEmission":
         strength = _value(node.inputs["Strength"], name, notes)
-        return Surface(np.zeros(3), _colour(node.inputs["Color"], name, notes) * strength, ())
+        return Surface(np.zeros(3), _colour(node.inputs["Color"], name, notes) * strength, (),
+                       None, surface_map(node.inputs["Color"], strength))
     if kind in ("ShaderNodeMixShader", "ShaderNodeAddShader"):
         shaders = [socket for socket in node.inputs if socket.type == "SHADER"]
         parts = [_shader(link.from_node, name, notes) if (link := _link_into(s)) else _black() for s in shaders]
         if any(part is None for part in parts):
             return None
+        if any(part.reflectance_map or part.emission_map for part in parts):
+            notes.append(f"material '{name}': a textured colour inside a {node.name} is taken as its mean")
         if kind == "ShaderNodeAddShader":
             weights = (1.0, 1.0)
         else:
@@ -113,7 +132,27 @@ def _note_non_diffuse(node, name: str, notes: list[str]) -> None:
             notes.append(f"material '{name}': {label} {amount} is not diffuse; baked as diffuse base colour")
 
 
+def surface_map(socket, scale: float = 1.0) -> SurfaceMap | None:
+    """The SurfaceMap feeding ``socket`` straight (through reroutes): an Image Texture with an
+    image (its UVs from a UV Map node, or the default), or a Color Attribute; else None."""
+    link = _link_into(socket)
+    if link is None:
+        return None
+    node = _through_reroutes(link.from_node)
+    if node.bl_idname == "ShaderNodeVertexColor":
+        return SurfaceMap(None, node.layer_name, "", scale)
+    if node.bl_idname != "ShaderNodeTexImage" or node.image is None:
+        return None
+    vector = _link_into(node.inputs["Vector"])
+    source = _through_reroutes(vector.from_node) if vector is not None else None
+    if source is not None and source.bl_idname != "ShaderNodeUVMap":
+        return None  # generated or object coordinates, a mapping: not a UV footprint
+    return SurfaceMap(node.image, None, "" if source is None else source.uv_map, scale)
+
+
 def _colour(socket, name: str, notes: list[str]) -> np.ndarray:
+    """The colour of ``socket``: its value, or the mean of the image or attribute feeding it
+    (``extract`` reads a straight SurfaceMap per face instead)."""
     link = _link_into(socket)
     if link is None:
         return _rgb(socket.default_value)
@@ -121,8 +160,12 @@ def _colour(socket, name: str, notes: list[str]) -> np.ndarray:
     if node.bl_idname == "ShaderNodeTexImage" and node.image is not None:
         mean = image_mean(node.image)
         if mean is not None:
-            notes.append(f"material '{name}': textured {socket.name} averaged over image '{node.image.name}'")
+            if surface_map(socket) is None:
+                notes.append(f"material '{name}': textured {socket.name} averaged over image '{node.image.name}' "
+                             "(its coordinates are not a UV map)")
             return mean
+    if node.bl_idname == "ShaderNodeVertexColor":
+        return _rgb(socket.default_value)
     notes.append(f"material '{name}': {socket.name} from a {node.bl_idname} not understood, "
                  "its unlinked value used")
     return _rgb(socket.default_value)
@@ -134,19 +177,26 @@ def _value(socket, name: str, notes: list[str]) -> float:
     return float(socket.default_value)
 
 
-def image_mean(image) -> np.ndarray | None:
-    """(3,) mean linear colour of a Blender image, None when it has no pixels (missing file).
-    Byte images in an sRGB colour space are decoded to linear first."""
+def image_pixels(image) -> np.ndarray | None:
+    """(H, W, 3) linear colour of a Blender image (row 0 at the bottom, as Blender stores it), None
+    when it has no pixels (a missing file). Byte images in an sRGB colour space are decoded."""
     channels = image.channels
-    count = image.size[0] * image.size[1] * channels
+    width, height = image.size
+    count = width * height * channels
     if count == 0 or channels < 3:
         return None
     pixels = np.empty(count, dtype=np.float32)
     image.pixels.foreach_get(pixels)
-    rgb = pixels.reshape(-1, channels)[:, :3].astype(np.float64)
+    rgb = pixels.reshape(height, width, channels)[..., :3].astype(np.float64)
     if not image.is_float and image.colorspace_settings.name == "sRGB":
         rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
-    return rgb.mean(axis=0)
+    return rgb
+
+
+def image_mean(image) -> np.ndarray | None:
+    """(3,) mean linear colour of a Blender image, None when it has no pixels."""
+    pixels = image_pixels(image)
+    return None if pixels is None else pixels.reshape(-1, 3).mean(axis=0)
 
 
 def _link_into(socket):

@@ -11,7 +11,9 @@ from ..scene import Scene
 
 def per_corner(scene: Scene, mesh: Discretization, radiosity: np.ndarray, node_lighting: np.ndarray,
                triangle_panel: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Corner colours (T, 3, 3) and lighting (T, 3, 3) from the nodes' lighting (N, C), and
+    """Corner colours (T, 3, 3) and lighting (T, 3, 3) from the nodes' lighting (N, C), each
+    corner's colour with its own triangle's reflectance and emission (a textured surface's vary
+    from face to face around a node), and
     triangle means (T, 3) from the front patches of each triangle's panel (``triangle_panel``:
     the panel that is the triangle, -1 where it was merged into a larger one, whose mean is then
     its corners'); RGB float64. A corner without a node (a zero-area triangle with no neighbour)
@@ -19,11 +21,10 @@ def per_corner(scene: Scene, mesh: Discretization, radiosity: np.ndarray, node_l
     count = len(scene.triangles)
     rgb = np.broadcast_to(radiosity, (len(radiosity), 3)) if radiosity.shape[1] == 1 else radiosity
     lighting = np.broadcast_to(node_lighting, (len(node_lighting), 3))
-    nodes = mesh.node_radiosity(lighting)
     corner_node = mesh.corner_node
     has_node = (corner_node >= 0)[..., None]
-    corner_colors = np.where(has_node, nodes[np.maximum(corner_node, 0)], scene.emission[:, None, :])
     corner_lighting = np.where(has_node, lighting[np.maximum(corner_node, 0)], 0.0)
+    corner_colors = scene.emission[:, None, :] + scene.reflectance[:, None, :] * corner_lighting
     front = np.arange(mesh.front_patch_count)
     owner = mesh.patch_triangle[front]
     if triangle_panel is not None:  # panels to input triangles

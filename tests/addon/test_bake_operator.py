@@ -190,7 +190,7 @@ def test_report_names_every_approximation(addon):
     outcome = baking.finish(prepared, baking.run_straight(prepared, echo=False))
     notes = "\n".join(outcome.notes)
     assert "'Metal': metallic 1.00 is not diffuse" in notes
-    assert "'Painted': textured Base Color averaged over image 'paint'" in notes
+    assert "object 'Painted': no UV map, its texture's mean colour used" in notes
     assert "'Odd': node setup not understood (ShaderNodeBsdf" in notes  # Glossy (Anisotropic in 5.0)
     assert "1 curve object(s) skipped" in notes
     _, colours = corner_colours(painted)
