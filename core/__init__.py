@@ -10,10 +10,10 @@ receiver nodes) -> ``transport`` (form factors, direct light) -> ``solve`` -> ``
 
 from .bake import BakeResult, bake
 from .job import BakeJob
-from .scene import AreaLight, PointLight, Scene, SpotLight, SunLight, area_light, read_obj
+from .scene import AreaLight, Environment, PointLight, Scene, SpotLight, SunLight, area_light, read_obj
 from .settings import KNOBS, PRESETS, BakeSettings
 from .transport.formfactors import form_factor_matrix
 from .util.progress import BakeCancelled
 
-__all__ = ["Scene", "PointLight", "SpotLight", "SunLight", "AreaLight", "area_light", "read_obj", "bake",
+__all__ = ["Scene", "Environment", "PointLight", "SpotLight", "SunLight", "AreaLight", "area_light", "read_obj", "bake",
            "BakeResult", "BakeSettings", "BakeCancelled", "BakeJob", "KNOBS", "PRESETS", "form_factor_matrix"]

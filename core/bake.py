@@ -49,7 +49,7 @@ def bake(scene: Scene, method: str = "raycast", solver: str = "progressive", pro
     """
     settings = resolved(BakeSettings(method=method, solver=solver, **knobs), scene.extent, len(scene.triangles))
     channels = 1 if scene.is_grey else 3
-    has_direct = bool(scene.lights) or bool(scene.sky.any())
+    has_direct = bool(scene.lights) or bool(scene.sky.any()) or scene.environment is not None
     stages = Stages(progress)
     span = spans({name: share for name, share in SHARES.items()
                   if (name != "direct" or has_direct) and (name != "near field" or settings.near_field)})
@@ -60,7 +60,8 @@ def bake(scene: Scene, method: str = "raycast", solver: str = "progressive", pro
         mesh, method, settings.hemicube_resolution, settings.rays_per_form_factor, settings.seed,
         probing=settings.probe_rays), timer="setup")
     light = ArrivingLight(engine, DirectLighting(scene.lights, scene.sky, engine.visibility,
-                                                 settings.rays_per_form_factor, settings.seed), channels)
+                                                 settings.rays_per_form_factor, settings.seed,
+                                                 scene.environment), channels)
     patch_direct = np.zeros((mesh.patch_count, channels))
     node_direct = np.zeros((mesh.node_count, channels))
     if has_direct:

@@ -12,9 +12,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from mathutils import Euler
 
 from ..core import Scene
-from ..core.scene.lights import PointLight, SpotLight, SunLight, area_light
+from ..core.scene.lights import Environment, PointLight, SpotLight, SunLight, area_light
 from ..core.scene.textures import face_means, image_triangle_means
 from .materials import MAX_REFLECTANCE, Surface, default_surface, image_pixels, material_surface
 
@@ -117,7 +118,7 @@ def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True,
         reason = "among the selected objects (Selected Only)" if receivers is not None else "in the scene"
         raise ValueError(f"no mesh {reason} receives colours: check Receives Colours in Object Properties")
     world = depsgraph.scene.world
-    sky = _world_colour(world, builder.notes) if world is not None else np.zeros(3)
+    sky, environment = _world_light(world, builder) if world is not None else (np.zeros(3), None)
     reflectance = np.array([s.reflectance for s in builder.surfaces])
     emission = np.array([s.emission for s in builder.surfaces])
     material = np.concatenate(builder.material)
@@ -130,6 +131,7 @@ def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True,
     scene = Scene(
         np.concatenate(builder.vertices), triangles, reflectance * reflects[:, None], emission * emits[:, None],
         material=material, two_sided=np.full(len(triangles), two_sided), lights=builder.lights, sky=sky,
+        environment=environment,
         casts_shadows=np.concatenate(builder.casts),
         corner_normals=np.concatenate(builder.corner_normals) if shading_normals else None,
     )
@@ -257,20 +259,50 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
                              "(same light, harder shadows)")
 
 
-def _world_colour(world, notes: list[str]) -> np.ndarray:
-    """(3,) background colour x strength of the world, as uniform sky light."""
+def _world_light(world, builder: _Builder) -> tuple[np.ndarray, Environment | None]:
+    """The world's light: (3,) background colour x strength as uniform sky light, or an
+    Environment where an Environment Texture (equirectangular, through a Mapping's rotation or
+    none) feeds the background colour."""
+    notes = builder.notes
     tree = world.node_tree if getattr(world, "use_nodes", True) else None
     output = tree.get_output_node("CYCLES") if tree is not None else None
     if output is None or not output.inputs["Surface"].is_linked:
-        return np.array(world.color[:3], dtype=np.float64) if tree is None else np.zeros(3)
+        return (np.array(world.color[:3], dtype=np.float64) if tree is None else np.zeros(3)), None
     node = output.inputs["Surface"].links[0].from_node
     if node.bl_idname != "ShaderNodeBackground":
         notes.append(f"world '{world.name}': {node.bl_idname} not understood, viewport colour used as sky")
-        return np.array(world.color[:3], dtype=np.float64)
+        return np.array(world.color[:3], dtype=np.float64), None
     colour, strength = node.inputs["Color"], node.inputs["Strength"]
-    if colour.is_linked or strength.is_linked:
+    if strength.is_linked:
+        notes.append(f"world '{world.name}': the background strength is driven by nodes; its unlinked value used")
+    if colour.is_linked:
+        texture = colour.links[0].from_node
+        environment = _environment(texture, float(strength.default_value), builder, world.name)
+        if environment is not None:
+            return np.zeros(3), environment
         notes.append(f"world '{world.name}': a textured background is taken as its unlinked colour")
-    return np.array(colour.default_value[:3], dtype=np.float64) * float(strength.default_value)
+    return np.array(colour.default_value[:3], dtype=np.float64) * float(strength.default_value), None
+
+
+def _environment(texture, strength: float, builder: _Builder, world_name: str) -> Environment | None:
+    """The Environment of an Environment Texture node, None when it is not one this reads."""
+    if texture.bl_idname != "ShaderNodeTexEnvironment" or texture.image is None or \
+            texture.projection != "EQUIRECTANGULAR":
+        return None
+    pixels = builder.image_pixels(texture.image)
+    if pixels is None:
+        return None
+    rotation = np.eye(3)
+    vector = texture.inputs["Vector"]
+    if vector.is_linked:
+        mapping = vector.links[0].from_node
+        if mapping.bl_idname != "ShaderNodeMapping" or mapping.vector_type not in ("POINT", "VECTOR") or \
+                any(mapping.inputs[name].is_linked for name in ("Rotation", "Location", "Scale")):
+            return None
+        if tuple(mapping.inputs["Scale"].default_value) != (1.0, 1.0, 1.0):
+            builder.notes.append(f"world '{world_name}': the environment's mapping scale is ignored")
+        rotation = np.array(Euler(mapping.inputs["Rotation"].default_value, "XYZ").to_matrix())
+    return Environment(pixels * strength, rotation)
 
 
 def _world_normals(normals: np.ndarray, matrix: np.ndarray, corners: np.ndarray) -> np.ndarray:

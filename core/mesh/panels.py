@@ -135,6 +135,7 @@ def panels(scene: Scene, panel_size: float,
     panel_scene = Scene(positions[used], compact.reshape(-1, 3), scene.reflectance[panel_source],
                         scene.emission[panel_source], material=scene.material[panel_source],
                         two_sided=scene.two_sided[panel_source], lights=scene.lights, sky=scene.sky,
+                        environment=scene.environment,
                         casts_shadows=scene.casts_shadows[panel_source])
     return Panels(panel_scene, panel_source, input_corner[panel_vertices], corner_panel, corner_weights,
                   triangle_panel)

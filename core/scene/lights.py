@@ -164,3 +164,42 @@ def check_lights(lights: Iterable) -> tuple:
             raise TypeError(f"lights[{index}] is a {type(light).__name__}, not one of "
                             f"{', '.join(t.__name__ for t in LIGHT_TYPES)}")
     return lights
+
+
+@dataclass(frozen=True)
+class Environment:
+    """Sky light that varies with direction: an equirectangular image of radiance, as Blender's
+    Environment Texture in the world (times the Background's strength), in W/(m^2 sr) per unit of
+    G, so that a uniform image of value c gives the same light as ``Scene.sky`` = c.
+
+    radiance : (H, W, 3) float >= 0, linear; row 0 at the bottom (v = 0), as Blender stores images.
+    rotation : (3, 3), turns a world direction into the image's frame (a Mapping node's rotation).
+
+    The direction d (in the image's frame) reads u = 1/2 - atan2(d_y, d_x) / (2 pi) and
+    v = 1 - acos(d_z) / pi (Cycles' direction_to_equirectangular), the nearest pixel."""
+
+    radiance: np.ndarray
+    rotation: np.ndarray | None = None  # None: the identity
+
+    def __post_init__(self) -> None:
+        radiance = np.array(self.radiance, dtype=np.float64)
+        if radiance.ndim != 3 or radiance.shape[2] != 3 or min(radiance.shape[:2]) < 1:
+            raise ValueError(f"the environment's radiance must have shape (H, W, 3), got {radiance.shape}")
+        if not np.isfinite(radiance).all() or (radiance < 0).any():
+            raise ValueError("the environment's radiance must be finite and not negative")
+        rotation = np.eye(3) if self.rotation is None else np.array(self.rotation, dtype=np.float64)
+        if rotation.shape != (3, 3) or not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6):
+            raise ValueError("the environment's rotation must be a 3 x 3 rotation matrix")
+        for name, value in (("radiance", radiance), ("rotation", rotation)):
+            value.setflags(write=False)
+            object.__setattr__(self, name, value)
+
+    def at(self, directions: np.ndarray) -> np.ndarray:
+        """(..., 3) radiance arriving from unit world ``directions`` (..., 3)."""
+        local = directions @ self.rotation.T
+        height, width = self.radiance.shape[:2]
+        u = 0.5 - np.arctan2(local[..., 1], local[..., 0]) / (2 * math.pi)
+        v = 1.0 - np.arccos(np.clip(local[..., 2], -1.0, 1.0)) / math.pi
+        column = np.floor(u * width).astype(np.int64) % width
+        row = np.minimum(np.floor(v * height).astype(np.int64), height - 1)
+        return self.radiance[row, column]

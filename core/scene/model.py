@@ -7,7 +7,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .lights import check_lights
+from .lights import Environment, check_lights
 
 
 # Areas and form-factor kernels take squares and fourth powers of lengths: beyond these, float64
@@ -75,6 +75,8 @@ class Scene:
         are not surfaces themselves.
     sky : (3,) float >= 0, the colour x strength of a uniform sky around the scene (Blender's
         world colour): it lights every surface that sees it.
+    environment : ``lights.Environment``, optional; sky light that varies with direction (an
+        HDRI), added to ``sky``.
     """
 
     vertices: np.ndarray
@@ -86,6 +88,7 @@ class Scene:
     corner_normals: np.ndarray | None = field(default=None)
     lights: tuple = ()
     casts_shadows: np.ndarray | None = field(default=None)
+    environment: Environment | None = None
     sky: np.ndarray | None = None
 
     def __post_init__(self) -> None:
@@ -144,6 +147,8 @@ class Scene:
         if sky.shape != (3,) or not np.isfinite(sky).all() or (sky < 0).any():
             raise ValueError(f"sky must be 3 finite numbers >= 0, got {self.sky!r}")
         object.__setattr__(self, "lights", check_lights(self.lights))
+        if self.environment is not None and not isinstance(self.environment, Environment):
+            raise TypeError(f"environment must be a core Environment, got {type(self.environment).__name__}")
         for name, value in (
             ("sky", sky),
             ("vertices", vertices),
@@ -168,6 +173,8 @@ class Scene:
     def is_grey(self) -> bool:
         """True when every reflectance, emission, light and the sky have equal R, G and B."""
         colours = [self.reflectance, self.emission, self.sky[None]]
+        if self.environment is not None:
+            colours.append(self.environment.radiance.reshape(-1, 3))
         colours += [getattr(light, "power", getattr(light, "strength", None))[None] for light in self.lights]
         return all(bool((colour == colour[:, :1]).all()) for colour in colours)
 

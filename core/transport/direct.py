@@ -12,6 +12,8 @@ output is G itself):
     area light, power P over area A, one-sided:                 G = P / (pi A) * F(point -> light)
     sky, colour C x strength k:                                  G = C k * (share of the
           cosine-weighted hemisphere that sees no surface)
+    environment, radiance L(d) from direction d:                 G = mean over cosine-weighted
+          directions d that see no surface of L(d)
 
 Every term is times the visibility of the light from the point, by rays through ``Visibility``.
 Lights do not block or reflect light (they are not geometry), as in Cycles. Point and spot
@@ -28,7 +30,7 @@ import numpy as np
 
 from ..mesh.discretize import light_divisions
 from ..rays.visibility import RAY_EPSILON, Visibility
-from ..scene.lights import AreaLight, PointLight, SpotLight, SunLight
+from ..scene.lights import AreaLight, Environment, PointLight, SpotLight, SunLight
 from ..util import parallel
 from ..util.geometry import areas_and_normals, subdivide, tangent_frames
 from .raycast import RayCaster, stratified_samples
@@ -53,9 +55,11 @@ class DirectLighting:
         need them), unless the splits of all of them would add more than MAX_ADDED_LIGHT_PIECES.
     """
 
-    def __init__(self, lights: tuple, sky: np.ndarray, visibility: Visibility, rays: int, seed: int) -> None:
+    def __init__(self, lights: tuple, sky: np.ndarray, visibility: Visibility, rays: int, seed: int,
+                 environment: Environment | None = None) -> None:
         self.lights = lights
         self.sky = np.asarray(sky, dtype=np.float64)
+        self.environment = environment
         self.visibility = visibility
         self.rays = rays
         self.seed = seed
@@ -78,7 +82,7 @@ class DirectLighting:
 
     @property
     def empty(self) -> bool:
-        return not self.lights and not self.sky.any()
+        return not self.lights and not self.sky.any() and self.environment is None
 
     def at_points(self, points: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
         """(m, 3) G at points (m, 3) facing unit normals (m, 3)."""
@@ -144,8 +148,12 @@ class DirectLighting:
     def _smooth(self, points, normals, first) -> np.ndarray:
         """Area lights and the sky."""
         result = self._area_lights(points, normals)
-        if self.sky.any():
-            result += self._open_sky(points, normals, first)[:, None] * self.sky
+        if self.sky.any() or self.environment is not None:
+            directions, open_sky = self._open_sky(points, normals, first)
+            if self.sky.any():
+                result += (1.0 - (~open_sky).mean(axis=1))[:, None] * self.sky
+            if self.environment is not None:
+                result += (open_sky[..., None] * self.environment.at(directions)).mean(axis=1)
         return result
 
     def _area_lights(self, points, normals) -> np.ndarray:
@@ -159,10 +167,11 @@ class DirectLighting:
             result += factors.reshape(count, sources).sum(axis=1)[:, None] * light.radiance
         return result
 
-    def _open_sky(self, points, normals, first) -> np.ndarray:
-        """(m,) share of the cosine-weighted hemisphere that sees no surface: ``rays`` x
-        SKY_RAYS_PER_RAY stratified directions by Malley's method (uniform on the disc, lifted to the
-        hemisphere), each point's strata rotated at random (Cranley-Patterson)."""
+    def _open_sky(self, points, normals, first) -> tuple[np.ndarray, np.ndarray]:
+        """Directions (m, S, 3) over each point's cosine-weighted hemisphere, and which of them
+        (m, S) see no surface: S = ``rays`` x SKY_RAYS_PER_RAY stratified directions by Malley's
+        method (uniform on the disc, lifted to the hemisphere), each point's strata rotated at
+        random (Cranley-Patterson)."""
         count, rays = len(points), self.rays * SKY_RAYS_PER_RAY
         side = int(round(math.sqrt(rays)))
         grid = (np.stack(np.meshgrid(np.arange(side), np.arange(side)), axis=-1).reshape(-1, 2) + 0.5) / side
@@ -175,7 +184,7 @@ class DirectLighting:
                       + np.sqrt(1 - u)[..., None] * normals[:, None])  # (m, S, 3)
         blocked = self._blocked(np.repeat(points, rays, axis=0), np.repeat(normals, rays, axis=0),
                                 directions.reshape(-1, 3), None)
-        return 1.0 - blocked.reshape(count, rays).mean(axis=1)
+        return directions, ~blocked.reshape(count, rays)
 
     def _blocked(self, points, normals, offsets, reach) -> np.ndarray:
         """(n,) whether a surface lies between points (lifted RAY_EPSILON off their surface)
