@@ -244,19 +244,16 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
     if getattr(light, "use_temperature", False):
         builder.notes.append(f"light '{name}': its blackbody temperature is ignored (colour x power used)")
     if light.type == "POINT":
-        builder.lights.append(PointLight(position, power))
+        builder.lights.append(PointLight(position, power, light.shadow_soft_size))
     elif light.type == "SPOT":
-        builder.lights.append(SpotLight(position, axis, power, light.spot_size, light.spot_blend))
+        builder.lights.append(SpotLight(position, axis, power, light.spot_size, light.spot_blend, light.shadow_soft_size))
     elif light.type == "SUN":
-        builder.lights.append(SunLight(axis, power))
+        builder.lights.append(SunLight(axis, power, light.angle))
     elif light.type == "AREA":
         if getattr(light, "spread", np.pi) < np.pi - 1e-6:
             builder.notes.append(f"light '{name}': spread {np.degrees(light.spread):.0f} deg treated as 180 deg")
         builder.lights.append(area_light(light.shape, light.size, light.size_y, matrix, power,
                                          getattr(light, "normalize", True)))
-    if light.type in ("POINT", "SPOT") and light.shadow_soft_size > 0:
-        builder.notes.append(f"light '{name}': radius {light.shadow_soft_size:.3g} treated as a point "
-                             "(same light, harder shadows)")
 
 
 def _world_light(world, builder: _Builder) -> tuple[np.ndarray, Environment | None]:

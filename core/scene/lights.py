@@ -34,16 +34,25 @@ def _direction(name: str, value) -> np.ndarray:
     return array
 
 
+def _check_size(name: str, value: float) -> None:
+    if not (math.isfinite(value) and value >= 0):
+        raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+
+
 @dataclass(frozen=True, eq=False)
 class PointLight:
-    """position (3,) world space; power (3,) W per channel (Blender: power x colour)."""
+    """position (3,) world space; power (3,) W per channel (Blender: power x colour); radius
+    (Blender's Radius): a sphere of that radius, which lights as its centre does but casts soft
+    shadows."""
 
     position: np.ndarray
     power: np.ndarray
+    radius: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "position", _vector("position", self.position))
         object.__setattr__(self, "power", _vector("power", self.power, nonnegative=True))
+        _check_size("radius", self.radius)
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,11 +65,13 @@ class SpotLight:
     power: np.ndarray
     spot_size: float
     spot_blend: float = 0.15
+    radius: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "position", _vector("position", self.position))
         object.__setattr__(self, "direction", _direction("direction", self.direction))
         object.__setattr__(self, "power", _vector("power", self.power, nonnegative=True))
+        _check_size("radius", self.radius)
         if not 0 < self.spot_size <= math.pi:
             raise ValueError(f"spot_size must be in (0, pi] radians, got {self.spot_size}")
         if not 0 <= self.spot_blend <= 1:
@@ -80,14 +91,19 @@ class SpotLight:
 @dataclass(frozen=True, eq=False)
 class SunLight:
     """direction (3,) the way the light travels; strength (3,) W/m^2 per channel (Blender:
-    strength x colour), the irradiance of a surface facing the sun."""
+    strength x colour), the irradiance of a surface facing the sun; angle (Blender's Angle) the
+    sun's angular diameter in radians, [0, pi), which softens its shadows."""
 
     direction: np.ndarray
     strength: np.ndarray
+    angle: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "direction", _direction("direction", self.direction))
         object.__setattr__(self, "strength", _vector("strength", self.strength, nonnegative=True))
+        _check_size("angle", self.angle)
+        if self.angle >= math.pi:
+            raise ValueError(f"angle must be below pi radians, got {self.angle}")
 
 
 @dataclass(frozen=True, eq=False)

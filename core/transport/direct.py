@@ -16,9 +16,11 @@ output is G itself):
           directions d that see no surface of L(d)
 
 Every term is times the visibility of the light from the point, by rays through ``Visibility``.
-Lights do not block or reflect light (they are not geometry), as in Cycles. Point and spot
-lights of any radius are treated as points (the radius only softens shadows: the irradiance of
-a uniformly bright sphere is that of a point of the same power), and a sun's angle likewise.
+Lights do not block or reflect light (they are not geometry), as in Cycles. A point or spot
+light of radius r lights as its centre does (the irradiance of a uniformly bright sphere is that
+of a point of the same power) and is seen from a point as the disc of radius r facing it: its
+visibility is the share of ``rays`` stratified points of that disc seen; a sun of angular
+diameter a likewise, over ``rays`` directions uniform in the cone of half-angle a / 2.
 """
 
 from __future__ import annotations
@@ -94,8 +96,8 @@ class DirectLighting:
         """(m, 3) G at points from the lights alone, without the sky (as ``at_points`` has it)."""
         if not self.lights:
             return np.zeros((len(points), 3))
-        return self._in_blocks(points, normals, lambda block, block_normals, _first: self._sharp(block, block_normals)
-                               + self._area_lights(block, block_normals), lambda _fraction: None)
+        return self._in_blocks(points, normals, lambda block, block_normals, first: self._sharp(
+            block, block_normals, first) + self._area_lights(block, block_normals), lambda _fraction: None)
 
     def patch_means(self, corners: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
         """(P, 3) G over patches (P, 3, 3): the mean over ``rays`` stratified points of each
@@ -115,23 +117,30 @@ class DirectLighting:
         return np.concatenate(parts) if parts else np.zeros((0, 3))
 
     def _point_block(self, points, normals, first) -> np.ndarray:
-        return self._sharp(points, normals) + self._smooth(points, normals, first)
+        return self._sharp(points, normals, first) + self._smooth(points, normals, first)
 
     def _patch_block(self, corners, normals, first) -> np.ndarray:
         samples = stratified_samples(corners, self.rays, self.seed + first)  # (k, S, 3)
-        sharp = self._sharp(samples.reshape(-1, 3), np.repeat(normals, self.rays, axis=0))
+        sharp = self._sharp(samples.reshape(-1, 3), np.repeat(normals, self.rays, axis=0), first, paired=True)
         return sharp.reshape(len(corners), self.rays, 3).mean(axis=1) + self._smooth(
             corners.mean(axis=1), normals, first)
 
-    def _sharp(self, points, normals) -> np.ndarray:
-        """Point, spot and sun lights at points, one shadow ray each."""
+    def _sharp(self, points, normals, first: int, paired: bool = False) -> np.ndarray:
+        """Point, spot and sun lights at points: one shadow ray each to a point light or along a
+        sun, ``rays`` to points of a light's disc or directions of a sun's cone (one each when
+        ``paired``: the points are a patch's ``rays`` stratified samples, the i-th paired with the
+        i-th stratum of the light)."""
         result = np.zeros((len(points), 3))
-        for light in self.lights:
+        for index, light in enumerate(self.lights):
             if isinstance(light, SunLight):
                 cosine = -(normals @ light.direction)
                 lit = np.flatnonzero(cosine > 0)
-                towards = np.broadcast_to(-light.direction, (len(lit), 3))
-                seen = ~self._blocked(points[lit], normals[lit], towards, None)
+                if light.angle > 0:
+                    samples = self._light_samples(lit, first, index, paired)
+                    seen = self._seen_in_cone(points[lit], normals[lit], -light.direction, light.angle / 2, samples)
+                else:
+                    towards = np.broadcast_to(-light.direction, (len(lit), 3))
+                    seen = ~self._blocked(points[lit], normals[lit], towards, None)
                 result[lit] += (cosine[lit] * seen)[:, None] * light.strength / math.pi
             elif isinstance(light, (PointLight, SpotLight)):
                 offset = light.position - points
@@ -141,9 +150,52 @@ class DirectLighting:
                 if isinstance(light, SpotLight):
                     strength *= light.cone_mask(-towards)
                 lit = np.flatnonzero(strength > 0)
-                seen = ~self._blocked(points[lit], normals[lit], offset[lit], np.ones(len(lit)))
+                if light.radius > 0:
+                    samples = self._light_samples(lit, first, index, paired)
+                    seen = self._seen_on_disc(points[lit], normals[lit], light.position, light.radius, samples)
+                else:
+                    seen = ~self._blocked(points[lit], normals[lit], offset[lit], np.ones(len(lit)))
                 result[lit] += (strength[lit] * seen)[:, None] * light.power / (4 * math.pi**2)
         return result
+
+    def _light_samples(self, chosen: np.ndarray, first: int, light: int, paired: bool) -> np.ndarray:
+        """(k, s, 2) stratified points of the unit square for the points ``chosen`` (k,) of a
+        block: s = ``rays`` strata, each point's rotated at random (Cranley-Patterson); paired, s =
+        1, the stratum of each point's place among its patch's ``rays`` samples."""
+        side = int(round(math.sqrt(self.rays)))
+        grid = (np.stack(np.meshgrid(np.arange(side), np.arange(side)), axis=-1).reshape(-1, 2) + 0.5) / side
+        rng = np.random.default_rng([self.seed, first, light + 1])
+        if paired:
+            rotation = rng.random((int(chosen.max()) // self.rays + 1 if len(chosen) else 0, 2))
+            return ((grid[chosen % self.rays] + rotation[chosen // self.rays]) % 1.0)[:, None]
+        rotation = rng.random((int(chosen.max()) + 1 if len(chosen) else 0, 1, 2))[chosen]
+        return (grid[None] + rotation) % 1.0
+
+    def _seen_on_disc(self, points, normals, centre, radius, samples) -> np.ndarray:
+        """(k,) the share of the samples (k, s, 2) of the disc of ``radius`` about ``centre``,
+        facing each point, that the point sees."""
+        towards = centre - points
+        tangent, bitangent = tangent_frames(towards / np.maximum(np.linalg.norm(towards, axis=1), 1e-300)[:, None])
+        r, angle = radius * np.sqrt(samples[..., 0]), 2 * math.pi * samples[..., 1]
+        targets = (centre + (r * np.cos(angle))[..., None] * tangent[:, None]
+                   + (r * np.sin(angle))[..., None] * bitangent[:, None])  # (k, s, 3)
+        count = samples.shape[1]
+        blocked = self._blocked(np.repeat(points, count, axis=0), np.repeat(normals, count, axis=0),
+                                (targets - points[:, None]).reshape(-1, 3), np.ones(len(points) * count))
+        return 1.0 - blocked.reshape(len(points), count).mean(axis=1)
+
+    def _seen_in_cone(self, points, normals, axis, half_angle, samples) -> np.ndarray:
+        """(k,) the share of the directions (uniform in solid angle within ``half_angle`` of the
+        unit ``axis``, from the samples (k, s, 2)) along which a point sees no surface."""
+        tangent, bitangent = tangent_frames(np.broadcast_to(axis, (1, 3)))
+        cos_theta = 1.0 - samples[..., 0] * (1.0 - math.cos(half_angle))
+        sin_theta, phi = np.sqrt(np.maximum(1.0 - cos_theta ** 2, 0.0)), 2 * math.pi * samples[..., 1]
+        directions = (cos_theta[..., None] * axis + (sin_theta * np.cos(phi))[..., None] * tangent[0]
+                      + (sin_theta * np.sin(phi))[..., None] * bitangent[0])  # (k, s, 3)
+        count = samples.shape[1]
+        blocked = self._blocked(np.repeat(points, count, axis=0), np.repeat(normals, count, axis=0),
+                                directions.reshape(-1, 3), None)
+        return 1.0 - blocked.reshape(len(points), count).mean(axis=1)
 
     def _smooth(self, points, normals, first) -> np.ndarray:
         """Area lights and the sky."""

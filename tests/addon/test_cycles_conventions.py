@@ -135,3 +135,19 @@ def test_light_exposure_doubles_per_stop(floor):
     light_object("Sun", "SUN", (0, 0, 5), 2.0, exposure=1.0)
     _, colours = baked(floor)
     np.testing.assert_allclose(colours, np.tile(RHO * 4.0 / math.pi, (len(colours), 1)), rtol=EXACT)
+
+
+def test_the_sun_angle_softens_its_shadow():
+    """Right below a roof's edge, half of a sun of angle 10 degrees is hidden: the floor there
+    gets half its light (the roof reflecting nothing, so no light comes back from it)."""
+    grey = diffuse_material("Grey", (0.5, 0.5, 0.5))
+    floor = grid_object("Floor", 2.0, 2, material=grey)
+    roof = grid_object("Roof", 2.0, 1, location=(-1.0, 0.0, 1.0), material=grey, facing_down=True)
+    roof.radiosity.reflects = False
+    light_object("Sun", "SUN", (0, 0, 5), 2.0, angle=math.radians(10))
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    positions, colours = corner_colours(floor)
+    edge = np.isclose(positions[:, 0], 0.0) & np.isclose(positions[:, 1], 0.0)
+    np.testing.assert_allclose(colours[edge, :3], 0.5 * 0.5 * 2.0 / np.pi, rtol=0.02)
+    outside = positions[:, 0] > 0.5
+    np.testing.assert_allclose(colours[outside, :3], 0.5 * 2.0 / np.pi, rtol=1e-3)
