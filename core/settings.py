@@ -137,6 +137,8 @@ KNOBS: tuple[Knob, ...] = (
          low=0, exposed=False),
     Knob("column_cache", int, 1 << 30, "Bytes of form-factor columns progressive refinement may keep for "
          "reshooting", "bytes", low=0, exposed=False),
+    Knob("split_direct", bool, False, "Also return the direct light at every corner (from the lights, the sky "
+         "and the emitters' first bounce), to write direct and indirect light apart", exposed=False),
     Knob("seed", int, 0, "Fixes the positions of every ray sample: the same seed gives the same bake", low=0),
 )
 KNOB = {knob.name: knob for knob in KNOBS}

@@ -13,6 +13,7 @@ import bpy
 from ..core import bake
 from ..core.job import BakeJob
 from ..core.rays import default_backend
+from ..core.reconstruct.corners import direct_and_indirect
 from .extract import Extraction, extract
 from .rendered import read_as_rendered
 from .write import Storage, plan, write
@@ -30,6 +31,12 @@ class Prepared:
     lighting_only: bool
     copy_changed: bool
     storage: Storage
+    separate_direct: bool = False
+
+    def attributes(self) -> list[str]:
+        """The colour attributes written: the bake's, then its direct and indirect parts if asked."""
+        extra = [f"{self.attribute} Direct", f"{self.attribute} Indirect"] if self.separate_direct else []
+        return [self.attribute] + extra
 
     def job(self) -> BakeJob:
         return BakeJob(self.extraction.scene, **self.knobs)
@@ -58,14 +65,16 @@ def prepare(scene, view_layer=None) -> Prepared:
             raise ValueError("Selected Only is on but no object is selected")
     extraction = read_as_rendered(scene, view_layer, lambda depsgraph: extract(
         depsgraph, settings.two_sided, shading_normals, receivers))
-    knobs = settings.core_arguments(extraction.scene.extent)
+    knobs = settings.core_arguments(extraction.scene.extent) | {"split_direct": settings.separate_direct}
     if default_backend() != "embree":
         extraction.notes.append("Embree is not available here: rays are traced by the slower NumPy ray caster")
     # fail early, before any work, on targets that cannot be written
-    plan(extraction.targets, attribute, settings.modified_topology == "COPY")
-    return Prepared(extraction, scene.name, view_layer.name, knobs, attribute, settings.output == "LIGHTING",
-                    settings.modified_topology == "COPY",
-                    Storage(settings.color_type, settings.color_domain, settings.exposure, settings.tone))
+    prepared = Prepared(extraction, scene.name, view_layer.name, knobs, attribute, settings.output == "LIGHTING",
+                        settings.modified_topology == "COPY",
+                        Storage(settings.color_type, settings.color_domain, settings.exposure, settings.tone),
+                        settings.separate_direct)
+    plan(extraction.targets, prepared.attributes(), prepared.copy_changed)
+    return prepared
 
 
 def run_straight(prepared: Prepared, echo: bool = True, label: str = ""):
@@ -84,11 +93,13 @@ def run_straight(prepared: Prepared, echo: bool = True, label: str = ""):
 
 def finish(prepared: Prepared, result) -> Outcome:
     """Write the result (all meshes or none) and describe the bake."""
-    targets, notes = plan(prepared.extraction.targets, prepared.attribute, prepared.copy_changed)
-    colours = result.corner_lighting if prepared.lighting_only else result.corner_colors
+    targets, notes = plan(prepared.extraction.targets, prepared.attributes(), prepared.copy_changed)
+    main = result.corner_lighting if prepared.lighting_only else result.corner_colors
+    parts = () if result.corner_direct is None else direct_and_indirect(
+        prepared.extraction.scene, result.corner_lighting, result.corner_direct, prepared.lighting_only)
+    colours = dict(zip(prepared.attributes(), (main, *parts)))
     scene = bpy.data.scenes[prepared.scene_name]
-    written = write(targets, colours, prepared.attribute, scene, scene.view_layers[prepared.view_layer_name],
-                    prepared.storage)
+    written = write(targets, colours, scene, scene.view_layers[prepared.view_layer_name], prepared.storage)
     return Outcome(describe(result.stats, len(written), prepared), prepared.extraction.notes + notes, written)
 
 

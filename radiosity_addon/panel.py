@@ -63,6 +63,7 @@ def draw_advanced(layout, settings) -> None:
     layout.prop(settings, "modified_topology")
     layout.prop(settings, "seed")
     column = layout.column(heading="Colour Attribute")
+    column.prop(settings, "separate_direct")
     column.prop(settings, "color_type")
     column.prop(settings, "color_domain")
     column.prop(settings, "exposure")

@@ -154,6 +154,11 @@ class RadiositySettings(bpy.types.PropertyGroup):
         ],
         default="CLIP", description="How byte colours fit the brighter values into 0..1",
     )
+    separate_direct: bpy.props.BoolProperty(
+        name="Direct and Indirect", default=False,
+        description="Also write the direct light (from lights, sky and emitters) and the rest into the attributes "
+        "'<Attribute> Direct' and '<Attribute> Indirect', which add up to the bake",
+    )
     selected_only: bpy.props.BoolProperty(
         name="Selected Only", default=False,
         description="Write colours only on the selected objects; the rest of the scene still lights and shades "

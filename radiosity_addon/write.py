@@ -21,8 +21,8 @@ class WriteError(ValueError):
     """A target cannot take the colours; nothing was written."""
 
 
-def plan(targets: list[MeshTarget], attribute: str, copy_changed: bool) -> tuple[list[MeshTarget], list[str]]:
-    """The targets to write and a note for each one left out; WriteError when the attribute
+def plan(targets: list[MeshTarget], attributes: list[str], copy_changed: bool) -> tuple[list[MeshTarget], list[str]]:
+    """The targets to write and a note for each one left out; WriteError when an attribute
     name is taken by something that is not a colour attribute."""
     chosen, notes, owner = [], [], {}
     for target in targets:
@@ -44,10 +44,11 @@ def plan(targets: list[MeshTarget], attribute: str, copy_changed: bool) -> tuple
         mesh = obj.data
         if len(mesh.loops) != target.loop_count:
             raise WriteError(f"mesh '{mesh.name}' changed during the bake; bake again")
-        existing = mesh.attributes.get(attribute)
-        if existing is not None and mesh.color_attributes.get(attribute) is None:
-            raise WriteError(f"mesh '{mesh.name}' has a {existing.data_type} attribute named '{attribute}' that "
-                             "is not a colour attribute; choose another attribute name")
+        for attribute in attributes:
+            existing = mesh.attributes.get(attribute)
+            if existing is not None and mesh.color_attributes.get(attribute) is None:
+                raise WriteError(f"mesh '{mesh.name}' has a {existing.data_type} attribute named '{attribute}' "
+                                 "that is not a colour attribute; choose another attribute name")
         if mesh.name in owner:
             notes.append(f"mesh '{mesh.name}' is shared by '{owner[mesh.name]}' and '{target.object_name}': "
                          f"it shows the lighting of '{owner[mesh.name]}' (make it single user to bake each)")
@@ -68,11 +69,12 @@ class Storage:
     tone: str = "CLIP"
 
 
-def write(targets: list[MeshTarget], corner_colors: np.ndarray, attribute: str, scene=None,
-          view_layer=None, storage: Storage = Storage()) -> list[str]:
-    """Write each target's colours (corner_colors (T, 3, 3), float, scene-linear) into
-    ``attribute`` as ``storage`` says; targets whose topology changed get an applied copy of their
-    mesh as ``view_layer`` of ``scene`` renders it. Returns the names of the objects written."""
+def write(targets: list[MeshTarget], colours: dict[str, np.ndarray], scene=None, view_layer=None,
+          storage: Storage = Storage()) -> list[str]:
+    """Write each target's colours into each attribute of ``colours`` ({name: (T, 3, 3) float,
+    scene-linear}; the first becomes the active and render colour attribute) as ``storage`` says;
+    targets whose topology changed get an applied copy of their mesh as ``view_layer`` of ``scene``
+    renders it. Returns the names of the objects written."""
     changed = [target.object_name for target in targets if target.topology_changed]
     applied = read_as_rendered(scene, view_layer, lambda depsgraph: _evaluated_meshes(changed, depsgraph)) \
         if changed else {}
@@ -82,25 +84,34 @@ def write(targets: list[MeshTarget], corner_colors: np.ndarray, attribute: str, 
         if target.topology_changed:
             obj = _applied_copy(obj, applied[target.object_name])
         mesh = obj.data
-        values = np.zeros((target.loop_count, 3))
-        values[target.loops.ravel()] = corner_colors[target.start:target.stop].reshape(-1, 3)
-        if storage.domain == "POINT":
-            loop_vertex = np.empty(target.loop_count, dtype=np.int32)
-            mesh.loops.foreach_get("vertex_index", loop_vertex)
-            values = vertex_means(values, loop_vertex, len(mesh.vertices))
-        values = exposed(values, storage.exposure, storage.tone if storage.data_type == "BYTE_COLOR" else None)
-        rgba = np.ones((len(values), 4), dtype=np.float32)
-        rgba[:, :3] = values
-        old = mesh.color_attributes.get(attribute)
-        if old is not None:
-            mesh.color_attributes.remove(old)
-        layer = mesh.color_attributes.new(attribute, storage.data_type, storage.domain)
-        layer.data.foreach_set("color", rgba.ravel())  # linear values: Blender encodes BYTE_COLOR as sRGB
-        mesh.color_attributes.active_color = layer
-        mesh.color_attributes.render_color_index = mesh.color_attributes.active_color_index
+        for index, (attribute, corner_colors) in enumerate(colours.items()):
+            layer = _write_attribute(mesh, target, attribute, corner_colors, storage)
+            if index == 0:
+                mesh.color_attributes.active_color = layer
+                mesh.color_attributes.render_color_index = mesh.color_attributes.active_color_index
         mesh.update()
         written.append(obj.name)
     return written
+
+
+def _write_attribute(mesh, target: MeshTarget, attribute: str, corner_colors: np.ndarray, storage: Storage):
+    """The colour attribute ``attribute`` of ``mesh`` (replaced if there was one) holding the target's
+    corner colours (its rows of ``corner_colors``) as ``storage`` says."""
+    values = np.zeros((target.loop_count, 3))
+    values[target.loops.ravel()] = corner_colors[target.start:target.stop].reshape(-1, 3)
+    if storage.domain == "POINT":
+        loop_vertex = np.empty(target.loop_count, dtype=np.int32)
+        mesh.loops.foreach_get("vertex_index", loop_vertex)
+        values = vertex_means(values, loop_vertex, len(mesh.vertices))
+    values = exposed(values, storage.exposure, storage.tone if storage.data_type == "BYTE_COLOR" else None)
+    rgba = np.ones((len(values), 4), dtype=np.float32)
+    rgba[:, :3] = values
+    old = mesh.color_attributes.get(attribute)
+    if old is not None:
+        mesh.color_attributes.remove(old)
+    layer = mesh.color_attributes.new(attribute, storage.data_type, storage.domain)
+    layer.data.foreach_set("color", rgba.ravel())  # linear values: Blender encodes BYTE_COLOR as sRGB
+    return layer
 
 
 def _evaluated_meshes(names: list[str], depsgraph) -> dict:

@@ -21,9 +21,7 @@ def per_corner(scene: Scene, mesh: Discretization, radiosity: np.ndarray, node_l
     count = len(scene.triangles)
     rgb = np.broadcast_to(radiosity, (len(radiosity), 3)) if radiosity.shape[1] == 1 else radiosity
     lighting = np.broadcast_to(node_lighting, (len(node_lighting), 3))
-    corner_node = mesh.corner_node
-    has_node = (corner_node >= 0)[..., None]
-    corner_lighting = np.where(has_node, lighting[np.maximum(corner_node, 0)], 0.0)
+    corner_lighting = at_corners(mesh, lighting)
     corner_colors = scene.emission[:, None, :] + scene.reflectance[:, None, :] * corner_lighting
     front = np.arange(mesh.front_patch_count)
     owner = mesh.patch_triangle[front]
@@ -39,3 +37,21 @@ def per_corner(scene: Scene, mesh: Discretization, radiosity: np.ndarray, node_l
         (area > 0)[:, None], sums / np.where(area > 0, area, 1.0)[:, None], corner_colors.mean(axis=1)
     )
     return np.ascontiguousarray(corner_colors), triangle_radiosity, np.ascontiguousarray(corner_lighting)
+
+
+def at_corners(mesh: Discretization, node_values: np.ndarray) -> np.ndarray:
+    """(T, 3, C) each corner's node value from ``node_values`` (N, C); 0 where a corner has no node."""
+    corner_node = mesh.corner_node
+    return np.where((corner_node >= 0)[..., None], node_values[np.maximum(corner_node, 0)], 0.0)
+
+
+def direct_and_indirect(scene: Scene, corner_lighting: np.ndarray, corner_direct: np.ndarray,
+                        lighting_only: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The corner colours (T, 3, 3) of the direct light and of the rest, which add up to the bake's:
+    G_d and G - G_d with ``lighting_only``, else E + rho G_d and rho (G - G_d) (an emitter's own
+    light counts as direct); ``corner_direct`` G_d is ``BakeResult.corner_direct``."""
+    indirect = corner_lighting - corner_direct
+    if lighting_only:
+        return corner_direct, indirect
+    reflectance = scene.reflectance[:, None, :]
+    return scene.emission[:, None, :] + reflectance * corner_direct, reflectance * indirect

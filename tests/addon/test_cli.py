@@ -167,7 +167,7 @@ def test_knobs_given_on_the_command_line_reach_the_core(cli, saved_scene, tmp_pa
                     "tolerance": pytest.approx(0.01, rel=1e-7),
                     "max_shots": 7, "monte_carlo_rays": 16, "ambient": False, "merge_flat": False,
                     "crease_angle": pytest.approx(45.0), "refinement_levels": 1, "seed": 3, "method": "raycast",
-                    "solver": "progressive", "link_tolerance": pytest.approx(0.02, rel=1e-7)}
+                    "solver": "progressive", "link_tolerance": pytest.approx(0.02, rel=1e-7), "split_direct": False}
 
 
 def _scene_file(path, grey: float) -> str:

@@ -80,3 +80,20 @@ def test_storage_options_on_the_command_line(addon, tmp_path):
         "BYTE_COLOR", "POINT", 1.0, "SOFT")
     layer = bpy.data.objects["Floor"].data.color_attributes["Radiosity"]
     assert (layer.domain, layer.data_type) == ("POINT", "BYTE_COLOR")
+
+
+def test_direct_and_indirect_attributes_add_up_to_the_bake():
+    """A floor under a sun beside a white wall (not touching it): the floor's direct light is the
+    sun's (rho E / pi: the wall shades none of it), the wall's light on it is indirect, and the
+    two attributes add up to the bake's."""
+    floor = lit_floor()
+    bpy.ops.mesh.primitive_plane_add(size=2.0, location=(1.25, 0.0, 1.0), rotation=(0.0, -np.pi / 2, 0.0))
+    bpy.context.active_object.data.materials.append(diffuse_material("White", (0.8, 0.8, 0.8)))
+    bpy.context.scene.radiosity.separate_direct = True
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    _, total = corner_colours(floor)
+    _, direct = corner_colours(floor, "Radiosity Direct")
+    _, indirect = corner_colours(floor, "Radiosity Indirect")
+    np.testing.assert_allclose(direct[:, :3] + indirect[:, :3], total[:, :3], rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(direct[:, :3], RADIOSITY, rtol=1e-3)  # the sun is straight above: no shade
+    assert indirect[:, :3].max() > 0.01 and floor.data.color_attributes.active_color.name == "Radiosity"
