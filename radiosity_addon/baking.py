@@ -64,7 +64,7 @@ def prepare(scene, view_layer=None) -> Prepared:
         if not receivers:
             raise ValueError("Selected Only is on but no object is selected")
     extraction = read_as_rendered(scene, view_layer, lambda depsgraph: extract(
-        depsgraph, settings.two_sided, shading_normals, receivers))
+        depsgraph, settings.two_sided, shading_normals, receivers, settings.instances == "OBJECTS"))
     knobs = settings.core_arguments(extraction.scene.extent) | {"split_direct": settings.separate_direct}
     if default_backend() != "embree":
         extraction.notes.append("Embree is not available here: rays are traced by the slower NumPy ray caster")

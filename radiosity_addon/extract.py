@@ -23,7 +23,8 @@ from .materials import MAX_REFLECTANCE, Surface, default_surface, image_pixels, 
 @dataclass
 class MeshTarget:
     """Where the colours of scene triangles [start, stop) go: the corners (loops) of the
-    original mesh of object ``object_name``."""
+    original mesh of object ``object_name``; for an instance (``instancer`` the object that made
+    it, ``matrix`` (4, 4) where), of a new object holding a copy of that object's mesh."""
 
     object_name: str
     mesh_name: str
@@ -32,6 +33,8 @@ class MeshTarget:
     loops: np.ndarray  # (stop - start, 3) loop index of each triangle corner
     loop_count: int
     topology_changed: bool = False
+    instancer: str | None = None
+    matrix: np.ndarray | None = None
 
 
 @dataclass
@@ -60,6 +63,7 @@ class _Builder:
         self.notes: list[str] = []
         self.lights: list = []
         self.receivers: set[str] | None = None
+        self.real_instances = False
         self.vertex_count = 0
         self.triangle_count = 0
 
@@ -80,15 +84,16 @@ class _Builder:
 
 
 def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True,
-            receivers: set[str] | None = None) -> Extraction:
+            receivers: set[str] | None = None, real_instances: bool = False) -> Extraction:
     """Read ``depsgraph`` (evaluated) into an Extraction; ValueError if nothing can be baked.
     With ``shading_normals`` the scene carries each corner's normal (Shade Flat / Smooth, sharp
     edges, custom normals: ``Mesh.corner_normals``), which then decide where vertex colours are
     shared; without, the bake's crease angle does. Each object's ``radiosity`` settings say
     whether it receives colours, reflects and emits; ``receivers`` (object names), when given,
-    limits the colours to those objects."""
+    limits the colours to those objects. With ``real_instances`` each mesh instance's colours go
+    to an object of its own (``write``), else instances only light and shade, with a note."""
     builder = _Builder()
-    builder.receivers = receivers
+    builder.receivers, builder.real_instances = receivers, real_instances
     skipped: dict[str, list[str]] = {}
     for instance in depsgraph.object_instances:
         obj = instance.object
@@ -110,8 +115,8 @@ def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True,
         builder.notes.append(f"{len(names)} {kind} object(s) skipped (only meshes are baked): {_names(names)}")
     for instancer, count in builder.instances.items():
         builder.notes.append(f"'{instancer}': its {count} mesh instance(s) light and shade the scene but get no "
-                             "colours, as their meshes belong to the instanced objects (Object > Apply > Make "
-                             "Instances Real to bake each)")
+                             "colours, as their meshes belong to the instanced objects (Advanced > Instances > "
+                             "Bake Into Objects gives each an object of its own)")
     if not builder.triangles:
         raise ValueError("there is no mesh visible in renders to bake")
     if not builder.targets:
@@ -177,8 +182,13 @@ def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, instancer: str | None)
     start = builder.triangle_count
     builder.vertex_count += len(world)
     builder.triangle_count += count
-    if instancer is not None:  # lights and shades the others; its mesh belongs to the instanced object
-        builder.instances[instancer] = builder.instances.get(instancer, 0) + 1
+    if instancer is not None:  # its mesh belongs to the instanced object: a copy gets the colours, on request
+        wanted = original.radiosity.receives and (builder.receivers is None or instancer in builder.receivers)
+        if builder.real_instances and wanted:
+            builder.targets.append(MeshTarget(original.name, original.data.name, start, builder.triangle_count,
+                                              loops, loop_count, True, instancer, matrix))
+        elif not builder.real_instances:
+            builder.instances[instancer] = builder.instances.get(instancer, 0) + 1
         return
     if not original.radiosity.receives or (builder.receivers is not None and original.name not in builder.receivers):
         return

@@ -61,6 +61,7 @@ def draw_advanced(layout, settings) -> None:
     row.active = settings.vertex_normals == "CREASE"
     row.prop(settings, "crease_angle")
     layout.prop(settings, "modified_topology")
+    layout.prop(settings, "instances")
     layout.prop(settings, "seed")
     column = layout.column(heading="Colour Attribute")
     column.prop(settings, "separate_direct")

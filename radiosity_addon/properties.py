@@ -159,6 +159,16 @@ class RadiositySettings(bpy.types.PropertyGroup):
         description="Also write the direct light (from lights, sky and emitters) and the rest into the attributes "
         "'<Attribute> Direct' and '<Attribute> Indirect', which add up to the bake",
     )
+    instances: bpy.props.EnumProperty(
+        name="Instances",
+        items=[
+            ("LIGHT_ONLY", "Light and Shade", "Instances (of collections, particles, geometry nodes) light and shade "
+             "the others but get no colours: their meshes belong to the instanced objects"),
+            ("OBJECTS", "Bake Into Objects", "Each instance becomes an object of its own, with a copy of its mesh "
+             "holding its colours; the instancer is hidden"),
+        ],
+        default="LIGHT_ONLY", description="What instanced meshes get",
+    )
     selected_only: bpy.props.BoolProperty(
         name="Selected Only", default=False,
         description="Write colours only on the selected objects; the rest of the scene still lights and shades "

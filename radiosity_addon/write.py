@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import bpy
 import numpy as np
+from mathutils import Matrix
 
 from ..core.reconstruct.storage import exposed, vertex_means
 from .extract import MeshTarget
@@ -29,6 +30,9 @@ def plan(targets: list[MeshTarget], attributes: list[str], copy_changed: bool) -
         obj = bpy.data.objects.get(target.object_name)
         if obj is None or obj.type != "MESH":
             raise WriteError(f"object '{target.object_name}' is gone or no longer a mesh; bake again")
+        if target.instancer is not None:  # a new object takes its colours
+            chosen.append(target)
+            continue
         library = obj.library or obj.data.library
         if library is not None:
             raise WriteError(f"object '{target.object_name}' has its mesh linked from {library.filepath}: colours "
@@ -75,14 +79,16 @@ def write(targets: list[MeshTarget], colours: dict[str, np.ndarray], scene=None,
     scene-linear}; the first becomes the active and render colour attribute) as ``storage`` says;
     targets whose topology changed get an applied copy of their mesh as ``view_layer`` of ``scene``
     renders it. Returns the names of the objects written."""
-    changed = [target.object_name for target in targets if target.topology_changed]
-    applied = read_as_rendered(scene, view_layer, lambda depsgraph: _evaluated_meshes(changed, depsgraph)) \
-        if changed else {}
+    changed = [index for index, target in enumerate(targets) if target.topology_changed]
+    applied = read_as_rendered(scene, view_layer, lambda depsgraph: _evaluated_meshes(
+        {index: targets[index].object_name for index in changed}, depsgraph)) if changed else {}
     written = []
-    for target in targets:
+    for index, target in enumerate(targets):
         obj = bpy.data.objects[target.object_name]
-        if target.topology_changed:
-            obj = _applied_copy(obj, applied[target.object_name])
+        if target.instancer is not None:
+            obj = _instance_copy(obj, bpy.data.objects[target.instancer], target.matrix, applied[index])
+        elif target.topology_changed:
+            obj = _applied_copy(obj, applied[index])
         mesh = obj.data
         for index, (attribute, corner_colors) in enumerate(colours.items()):
             layer = _write_attribute(mesh, target, attribute, corner_colors, storage)
@@ -114,9 +120,24 @@ def _write_attribute(mesh, target: MeshTarget, attribute: str, corner_colors: np
     return layer
 
 
-def _evaluated_meshes(names: list[str], depsgraph) -> dict:
-    """{object name: a new mesh of its evaluated geometry (modifiers applied)} in ``depsgraph``."""
-    return {name: bpy.data.meshes.new_from_object(bpy.data.objects[name].evaluated_get(depsgraph)) for name in names}
+def _evaluated_meshes(names: dict, depsgraph) -> dict:
+    """{key: a new mesh of the evaluated geometry (modifiers applied) of the object named
+    ``names[key]``} in ``depsgraph``."""
+    return {key: bpy.data.meshes.new_from_object(bpy.data.objects[name].evaluated_get(depsgraph))
+            for key, name in names.items()}
+
+
+def _instance_copy(source, instancer, matrix: np.ndarray, mesh):
+    """A new object holding ``mesh`` (a copy of ``source``'s evaluated mesh) where ``instancer``
+    put an instance of ``source`` (world ``matrix``), in the instancer's collections; the
+    instancer is hidden, its instances now being objects of their own."""
+    mesh.name = f"{source.data.name} baked"
+    copy = bpy.data.objects.new(f"{instancer.name} {source.name}", mesh)
+    copy.matrix_world = Matrix(matrix.tolist())
+    for collection in instancer.users_collection:
+        collection.objects.link(copy)
+    instancer.hide_render = instancer.hide_viewport = True
+    return copy
 
 
 def _applied_copy(obj, mesh):

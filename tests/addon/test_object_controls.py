@@ -134,3 +134,32 @@ def test_an_object_that_casts_no_shadow_lets_the_light_through():
     assert np.allclose(baked_floor(floor), 0, atol=1e-6)
     roof.visible_shadow = False
     assert np.allclose(baked_floor(floor), 0.5 * 2.0 / np.pi, rtol=1e-3)
+
+
+def test_instances_baked_into_objects_of_their_own():
+    """Advanced > Instances > Bake Into Objects: each instance of a collection becomes an object
+    with a copy of the mesh, placed where the instance was, holding the light there (a tile under
+    a sun, moved 3 m aside by two instancers: rho E / pi everywhere); the instancers are hidden and
+    the instanced object keeps no colours."""
+    tile = grid_object("Tile", 1.0, 2, material=diffuse_material("Grey", (0.5, 0.5, 0.5)))
+    collection = bpy.data.collections.new("Tiles")
+    for owner in list(tile.users_collection):
+        owner.objects.unlink(tile)
+    collection.objects.link(tile)
+    bpy.context.scene.collection.children.link(collection)
+    bpy.context.view_layer.layer_collection.children["Tiles"].exclude = True
+    for x in (-3.0, 3.0):
+        instancer = bpy.data.objects.new(f"Tiles at {x:+.0f}", None)
+        instancer.instance_type, instancer.instance_collection = "COLLECTION", collection
+        instancer.location = (x, 0.0, 0.0)
+        bpy.context.scene.collection.objects.link(instancer)
+    light_object("Sun", "SUN", (0, 0, 5), 2.0)
+    bpy.context.scene.radiosity.instances = "OBJECTS"
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    for x in (-3.0, 3.0):
+        copy = bpy.data.objects[f"Tiles at {x:+.0f} Tile"]
+        positions, colours = corner_colours(copy)
+        assert np.allclose(positions[:, 0].mean(), x) and copy.data is not tile.data
+        assert np.allclose(colours[:, :3], 0.5 * 2.0 / np.pi, rtol=1e-3)
+        assert bpy.data.objects[f"Tiles at {x:+.0f}"].hide_render
+    assert "Radiosity" not in tile.data.color_attributes
