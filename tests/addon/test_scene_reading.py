@@ -123,3 +123,22 @@ def test_a_mesh_linked_from_a_library_is_refused_by_name(tmp_path):
     with pytest.raises(RuntimeError, match=r"object 'Prop' has its mesh linked from .*props\.blend"):
         bpy.ops.radiosity.bake()
     assert "Radiosity" not in floor.data.color_attributes
+
+
+@pytest.mark.parametrize("angle, contact_share", [(0.0, 1.0), (0.00918, 0.5)])
+def test_a_wall_standing_on_the_floor_s_edge_under_the_sun(angle, contact_share):
+    """The sun straight down beside a vertical wall standing on the floor's edge: a sun of no size
+    leaves the whole floor in its light, rho E / pi at least; one of Blender's default angle
+    (0.526 degrees) hides the half of its disc leaning towards the wall from the floor's corners
+    on the contact line (in the middle of the wall: half its light there, as in Cycles)."""
+    floor = grid_object("Floor", 2.0, 2, material=diffuse_material("Grey", (0.5, 0.5, 0.5)))
+    light_object("Sun", "SUN", (0, 0, 5), 2.0, angle=angle)
+    bpy.ops.mesh.primitive_plane_add(size=2.0, location=(1.0, 0.0, 1.0), rotation=(0.0, -np.pi / 2, 0.0))
+    bpy.context.active_object.radiosity.reflects = False  # only the sun's light on the floor
+    bpy.context.scene.radiosity.separate_direct = True
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    positions, direct = corner_colours(floor, "Radiosity Direct")
+    middle = np.isclose(positions[:, 0], 1.0) & np.isclose(positions[:, 1], 0.0)
+    lit = 0.5 * 2.0 / np.pi
+    np.testing.assert_allclose(direct[middle, :3], contact_share * lit, rtol=0.02)
+    np.testing.assert_allclose(direct[positions[:, 0] < 0.5, :3], lit, rtol=1e-3)
