@@ -6,6 +6,7 @@ from the knob table."""
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -101,3 +102,37 @@ def test_the_readme_knob_table_is_the_generated_one():
     start = text.index("<!-- knobs:")
     body = text[text.index("\n", start) + 1: text.index("<!-- /knobs -->")]
     assert body.strip() == knob_table().strip()
+
+
+def note_templates() -> list[tuple[str, str]]:
+    """Each note the add-on can add to a bake's report (string arguments of ``notes.append`` and
+    strings assigned to ``note``), as (where, its text with "{}" for each formatted value)."""
+    found = []
+    for path in sorted((CORE.parent / "radiosity_addon").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            texts = []
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "append":
+                owner = node.func.value
+                if getattr(owner, "attr", getattr(owner, "id", None)) == "notes":
+                    texts = node.args
+            elif isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "note" for t in node.targets):
+                texts = [node.value]
+            for text in texts:
+                parts = text.values if isinstance(text, ast.JoinedStr) else [text]
+                template = "".join(part.value if isinstance(part, ast.Constant) else "{}" for part in parts)
+                found.append((f"{path.name}:{text.lineno}", template))
+    return found
+
+
+def test_every_note_of_the_report_is_in_the_reading_table():
+    """docs/reading.md lists what a bake reads and approximates with the words its report uses:
+    each note the add-on can write contains a phrase quoted in that table, and each quoted phrase
+    is in a note (or in an error the table says is one)."""
+    table = (CORE.parent / "docs" / "reading.md").read_text()
+    phrases = re.findall(r'"([^"]+)"', table)
+    notes = note_templates()
+    assert len(notes) > 15  # the parse finds them
+    assert not [where for where, template in notes if not any(phrase in template for phrase in phrases)]
+    sources = "".join(path.read_text() for path in (CORE.parent / "radiosity_addon").glob("*.py"))
+    assert not [phrase for phrase in phrases if phrase not in sources and
+                not any(phrase in template for _, template in notes)]
