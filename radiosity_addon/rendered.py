@@ -61,7 +61,9 @@ def read_as_rendered(scene, view_layer, read: Callable[[object], Result]) -> Res
     camera = None
     pending = RADIOSITY_RE_scene_reader.pending
     pending.update(view_layer=view_layer.name, read=read)
-    bpy.utils.register_class(RADIOSITY_RE_scene_reader)
+    registered_here = not RADIOSITY_RE_scene_reader.is_registered
+    if registered_here:
+        bpy.utils.register_class(RADIOSITY_RE_scene_reader)
     try:
         for owner, name, value in _READING_SETTINGS:
             setattr(getattr(scene, owner), name, value)
@@ -79,7 +81,8 @@ def read_as_rendered(scene, view_layer, read: Callable[[object], Result]) -> Res
         pending.clear()
         for owner, name, value in saved:
             setattr(owner, name, value)
-        bpy.utils.unregister_class(RADIOSITY_RE_scene_reader)
+        if registered_here:
+            bpy.utils.unregister_class(RADIOSITY_RE_scene_reader)
         if camera is not None:
             data = camera.data
             bpy.data.objects.remove(camera)
