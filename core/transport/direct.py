@@ -162,8 +162,7 @@ class DirectLighting:
         """(k, s, 2) stratified points of the unit square for the points ``chosen`` (k,) of a
         block: s = ``rays`` strata, each point's rotated at random (Cranley-Patterson); paired, s =
         1, the stratum of each point's place among its patch's ``rays`` samples."""
-        side = int(round(math.sqrt(self.rays)))
-        grid = (np.stack(np.meshgrid(np.arange(side), np.arange(side)), axis=-1).reshape(-1, 2) + 0.5) / side
+        grid = _strata(self.rays)
         rng = np.random.default_rng([self.seed, first, light + 1])
         if paired:
             rotation = rng.random((int(chosen.max()) // self.rays + 1 if len(chosen) else 0, 2))
@@ -179,10 +178,7 @@ class DirectLighting:
         r, angle = radius * np.sqrt(samples[..., 0]), 2 * math.pi * samples[..., 1]
         targets = (centre + (r * np.cos(angle))[..., None] * tangent[:, None]
                    + (r * np.sin(angle))[..., None] * bitangent[:, None])  # (k, s, 3)
-        count = samples.shape[1]
-        blocked = self._blocked(np.repeat(points, count, axis=0), np.repeat(normals, count, axis=0),
-                                (targets - points[:, None]).reshape(-1, 3), np.ones(len(points) * count))
-        return 1.0 - blocked.reshape(len(points), count).mean(axis=1)
+        return self._unblocked(points, normals, targets - points[:, None], 1.0).mean(axis=1)
 
     def _seen_in_cone(self, points, normals, axis, half_angle, samples) -> np.ndarray:
         """(k,) the share of the directions (uniform in solid angle within ``half_angle`` of the
@@ -192,10 +188,7 @@ class DirectLighting:
         sin_theta, phi = np.sqrt(np.maximum(1.0 - cos_theta ** 2, 0.0)), 2 * math.pi * samples[..., 1]
         directions = (cos_theta[..., None] * axis + (sin_theta * np.cos(phi))[..., None] * tangent[0]
                       + (sin_theta * np.sin(phi))[..., None] * bitangent[0])  # (k, s, 3)
-        count = samples.shape[1]
-        blocked = self._blocked(np.repeat(points, count, axis=0), np.repeat(normals, count, axis=0),
-                                directions.reshape(-1, 3), None)
-        return 1.0 - blocked.reshape(len(points), count).mean(axis=1)
+        return self._unblocked(points, normals, directions, None).mean(axis=1)
 
     def _smooth(self, points, normals, first) -> np.ndarray:
         """Area lights and the sky."""
@@ -224,19 +217,23 @@ class DirectLighting:
         (m, S) see no surface: S = ``rays`` x SKY_RAYS_PER_RAY stratified directions by Malley's
         method (uniform on the disc, lifted to the hemisphere), each point's strata rotated at
         random (Cranley-Patterson)."""
-        count, rays = len(points), self.rays * SKY_RAYS_PER_RAY
-        side = int(round(math.sqrt(rays)))
-        grid = (np.stack(np.meshgrid(np.arange(side), np.arange(side)), axis=-1).reshape(-1, 2) + 0.5) / side
-        rotation = np.random.default_rng([self.seed, first]).random((count, 1, 2))
+        grid = _strata(self.rays * SKY_RAYS_PER_RAY)
+        rotation = np.random.default_rng([self.seed, first]).random((len(points), 1, 2))
         u, v = np.moveaxis((grid[None] + rotation) % 1.0, -1, 0)  # (m, S) each
         radius, angle = np.sqrt(u), 2 * math.pi * v
         tangent, bitangent = tangent_frames(normals)
         directions = ((radius * np.cos(angle))[..., None] * tangent[:, None]
                       + (radius * np.sin(angle))[..., None] * bitangent[:, None]
                       + np.sqrt(1 - u)[..., None] * normals[:, None])  # (m, S, 3)
-        blocked = self._blocked(np.repeat(points, rays, axis=0), np.repeat(normals, rays, axis=0),
-                                directions.reshape(-1, 3), None)
-        return directions, ~blocked.reshape(count, rays)
+        return directions, self._unblocked(points, normals, directions, None)
+
+    def _unblocked(self, points, normals, offsets, reach) -> np.ndarray:
+        """(m, s) which of the s rays from each point (m, 3) along ``offsets`` (m, s, 3) no
+        surface blocks (``_blocked``; ``reach`` 1.0 up to the offsets' ends, None to infinity)."""
+        count = offsets.shape[1]
+        blocked = self._blocked(np.repeat(points, count, axis=0), np.repeat(normals, count, axis=0),
+                                offsets.reshape(-1, 3), None if reach is None else np.full(len(points) * count, reach))
+        return ~blocked.reshape(len(points), count)
 
     def _blocked(self, points, normals, offsets, reach) -> np.ndarray:
         """(n,) whether a surface lies between points (lifted RAY_EPSILON off their surface)
@@ -254,3 +251,9 @@ class DirectLighting:
             # stop RAY_EPSILON short of the light, along the ray
             reach = reach - RAY_EPSILON / np.maximum(np.linalg.norm(directions, axis=1), np.finfo(float).tiny)
         return visibility.occluded_unit(starts, directions.astype(np.float32), reach)
+
+
+def _strata(count: int) -> np.ndarray:
+    """(n^2, 2) centres of the n x n cells of the unit square, n = round(sqrt(count))."""
+    side = int(round(math.sqrt(count)))
+    return (np.stack(np.meshgrid(np.arange(side), np.arange(side)), axis=-1).reshape(-1, 2) + 0.5) / side
