@@ -1,4 +1,5 @@
-"""bake(): a Scene in, colours per triangle corner out, through the stages of the pipeline."""
+"""bake(): a Scene in, colours per triangle corner out, through the stages of the pipeline;
+``BakeSession``: bakes that keep their geometry work and re-solve when only colours change."""
 
 from __future__ import annotations
 
@@ -9,12 +10,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .mesh.discretize import Discretization, discretised
+from .mesh.panels import Panels
+from .mesh.surfaces import regions_split, resurfaced
 from .reconstruct import estimate
 from .reconstruct.corners import at_corners, per_corner
 from .reconstruct.correction import near_field_correction
 from .scene import Scene
+from .scene.changes import geometry_change, intensities
 from .settings import BakeSettings, resolved
-from .solve.levels import solve
+from .solve.levels import Solution, solve
 from .transport.arriving import ArrivingLight
 from .transport.direct import DirectLighting
 from .transport.formfactors import FormFactorEngine
@@ -51,67 +55,181 @@ def bake(scene: Scene, method: str = "raycast", solver: str = "progressive", pro
     ``progress(fraction, message)`` is called at least every 0.2 s; if it returns False the bake
     raises BakeCancelled. ``stats["error_estimate"]`` is ``reconstruct.estimate``'s.
     """
-    settings = resolved(BakeSettings(method=method, solver=solver, **knobs), scene.extent, len(scene.triangles))
-    channels = 1 if scene.is_grey else 3
-    has_direct = bool(scene.lights) or bool(scene.sky.any()) or scene.environment is not None
-    stages = Stages(progress)
-    span = spans({name: share for name, share in SHARES.items()
-                  if (name != "direct" or has_direct) and (name != "near field" or settings.near_field)
-                  and (name != "split" or settings.split_direct)})
+    return BakeSession(method, solver, keep=False, **knobs).bake(scene, progress)
 
-    mesh, panels = stages.run("discretising", span["discretise"], discretised, scene, settings.patch_size,
-                              math.radians(settings.crease_angle), settings.merge_flat, timer="discretise")
-    engine = stages.run("preparing rays", span["rays"], lambda _report: FormFactorEngine(
-        mesh, method, settings.hemicube_resolution, settings.rays_per_form_factor, settings.seed,
-        probing=settings.probe_rays), timer="setup")
-    light = ArrivingLight(engine, DirectLighting(scene.lights, scene.sky, engine.visibility,
-                                                 settings.rays_per_form_factor, settings.seed,
-                                                 scene.environment), channels)
-    patch_direct = np.zeros((mesh.patch_count, channels))
-    node_direct = np.zeros((mesh.node_count, channels))
-    if has_direct:
-        patch_direct, node_direct = stages.run("direct light", span["direct"], _direct_light, light, timer="direct_light")
-    with stages.within(span["solve"]):
-        solution = solve(light, patch_direct, node_direct, settings, stages)
-    light, radiosity, node_lighting = solution.light, solution.radiosity, solution.node_lighting
-    mesh, near_errors, near_stats = light.mesh, None, None
-    if settings.near_field:
-        node_lighting, near_errors, near_stats = stages.run("near field", span["near field"], near_field_correction,
-                                                            scene, light, radiosity, node_lighting, timer="near_field")
-    corner_direct = None
-    if settings.split_direct:
-        corner_direct = stages.run("direct light at vertices", span["split"], _direct_at_corners, light, node_direct,
-                                   node_lighting, timer="split")
-    corners = stages.run("per-corner colours", span["corners"], lambda _report: per_corner(
-        scene, mesh, radiosity, node_lighting, None if panels is None else panels.triangle_panel), timer="reconstruct")
-    error = estimate.of_bake(mesh, mesh.node_radiosity(node_lighting), radiosity, light.engine.receiving_points,
-                             method, solution.stats, solution.level_change, solution.noise, near_errors)
-    stages.done()
-    stats = {
-        "method": method,
-        "solver": solver,
-        "settings": dataclasses.asdict(settings),
-        "triangles": len(scene.triangles),
-        "panels": len(mesh.panel_corners),
-        "patches": mesh.patch_count,
-        "lights": len(scene.lights),
-        "nodes": mesh.node_count,
-        "channels": channels,
-        "near_field": near_stats,
-        "seconds": stages.seconds | {"total": sum(stages.seconds.values())},
-        "rays_cast": light.engine.rays_cast,
-        "peak_memory_estimate": _base_bytes(mesh) + solution.extra_bytes + light.engine.working_bytes(),
-        "error_estimate": error,
-        **solution.stats,
-    }
-    return BakeResult(*corners, stats, corner_direct)
+
+@dataclass
+class _Kept:
+    """What a session's first bake computed from the geometry alone (``BakeSession``)."""
+
+    scene: Scene  # the scene it baked: its geometry and light sources
+    settings: BakeSettings
+    panels: Panels | None
+    light: ArrivingLight  # over the last level's patches: the engine, its rays, the sources
+    patch_factors: np.ndarray  # (P, S, 3) each source's light over the patches, per unit
+    node_factors: np.ndarray  # (N, S, 3) and at the nodes
+    level_change: float | None
+    solver: dict = field(default_factory=dict)  # levels.solve's form factors
+    near_field: dict = field(default_factory=dict)  # correction's pairs, rows and factors
+    sharp: dict = field(default_factory=dict)  # ArrivingLight.sharp's form factors and shadows
+
+    def bytes(self) -> int:
+        """About what it holds beyond the scene."""
+        arrays = [self.patch_factors, self.node_factors, *self.near_field.values()]
+        arrays += [column for column, _ in self.solver.get("columns", {}).values()] + [self.solver.get("matrix")]
+        arrays += [part for parts in self.sharp.values() for part in parts]
+        return sum(item.nbytes for item in arrays if isinstance(item, np.ndarray)) + _base_bytes(self.light.mesh)
+
+
+class BakeSession:
+    """Bakes that keep what depends on the geometry alone (patches and nodes, the rays' scene,
+    form factors, each light's shadows per unit of its intensity, the near field's pairs), so
+    that a scene whose colours alone changed (reflectance and emission, a light's power or
+    colour, the sky's colour, the environment's strength) is re-solved with them instead of
+    baked afresh: ``bake`` chooses, and ``change`` says why it would not re-solve.
+
+        session = BakeSession(preset_knobs)
+        first = session.bake(scene)         # a bake, and what it can reuse
+        again = session.bake(recoloured)    # a re-solve: again.stats["resolved"] is True
+
+    A re-solve solves on the first bake's last patches (its refinement levels are not redone)
+    and finds the form factors kept (progressive's columns while they fit ``column_cache``;
+    Jacobi's and Gauss-Seidel's matrix); Monte Carlo and the hierarchical solver solve again
+    from the kept patches and rays. It matches a fresh bake of the new colours within the bake's
+    error estimate (tests/core/test_session.py).
+    """
+
+    def __init__(self, method: str = "raycast", solver: str = "progressive", keep: bool = True, **knobs) -> None:
+        BakeSettings(method=method, solver=solver, **knobs)  # refused here, not at the first bake
+        self.method, self.solver, self.knobs, self.keep = method, solver, knobs, keep
+        self._kept: _Kept | None = None
+
+    def change(self, scene: Scene) -> str | None:
+        """Why ``bake(scene)`` would bake afresh, in words; None when it re-solves."""
+        if self._kept is None:
+            return "nothing was baked yet"
+        change = geometry_change(self._kept.scene, scene)
+        if change is None and regions_split(self._kept.panels, scene):
+            change = "colours differ now inside a flat region whose triangles were merged"
+        return change
+
+    @property
+    def kept_bytes(self) -> int:
+        """About the memory the session holds for re-solves."""
+        return 0 if self._kept is None else self._kept.bytes()
+
+    def bake(self, scene: Scene, progress: ProgressCallback | None = None) -> BakeResult:
+        """``core.bake``'s result for ``scene``, re-solved when only its colours changed since
+        this session's last bake afresh (then ``stats["resolved"]`` is True)."""
+        if self.change(scene) is None:
+            return self._resolve(scene, progress)
+        self._kept = None  # nothing stale is held while the new bake runs
+        return self._first(scene, progress)
+
+    def _first(self, scene: Scene, progress: ProgressCallback | None) -> BakeResult:
+        method = self.method
+        settings = resolved(BakeSettings(method=method, solver=self.solver, **self.knobs), scene.extent,
+                            len(scene.triangles))
+        channels = 1 if scene.is_grey else 3
+        has_direct = bool(scene.lights) or bool(scene.sky.any()) or scene.environment is not None
+        stages = Stages(progress)
+        span = _spans(settings, has_direct, first=True)
+        mesh, panels = stages.run("discretising", span["discretise"], discretised, scene, settings.patch_size,
+                                  math.radians(settings.crease_angle), settings.merge_flat, timer="discretise")
+        engine = stages.run("preparing rays", span["rays"], lambda _report: FormFactorEngine(
+            mesh, method, settings.hemicube_resolution, settings.rays_per_form_factor, settings.seed,
+            probing=settings.probe_rays), timer="setup")
+        direct = DirectLighting(scene.lights, scene.sky, engine.visibility, settings.rays_per_form_factor,
+                                settings.seed, scene.environment)
+        kept = _Kept(scene, settings, panels, None, None, None, None)
+        light = ArrivingLight(engine, direct, channels, kept=kept.sharp if self.keep else None)
+        patch_factors = np.zeros((mesh.patch_count, direct.source_count, 3))
+        node_factors = np.zeros((mesh.node_count, direct.source_count, 3))
+        if has_direct:
+            patch_factors, node_factors = stages.run("direct light", span["direct"], _direct_light, light,
+                                                     timer="direct_light")
+        node_direct = light.combined(node_factors)
+        with stages.within(span["solve"]):
+            solution = solve(light, patch_factors, node_direct, settings, stages, kept.solver)
+        kept.light, kept.patch_factors, kept.node_factors = solution.light, solution.patch_factors, node_factors
+        kept.level_change = solution.level_change
+        result = self._finish(scene, settings, panels, solution, node_direct, kept, stages, span)
+        if self.keep:
+            self._kept = kept
+        return result
+
+    def _resolve(self, scene: Scene, progress: ProgressCallback | None) -> BakeResult:
+        kept = self._kept
+        settings = kept.settings
+        first = kept.light
+        stages = Stages(progress)
+        span = _spans(settings, first.has_direct, first=False)
+        mesh = resurfaced(first.mesh, kept.panels, scene)
+        light = ArrivingLight(first.engine.with_surfaces(mesh), first.direct, 1 if scene.is_grey else 3,
+                              intensities(kept.scene, scene), kept.sharp)
+        node_direct = light.combined(kept.node_factors)
+        with stages.within(span["solve"]):
+            solution = solve(light, kept.patch_factors, node_direct, dataclasses.replace(settings, refinement_levels=0),
+                             stages, kept.solver)
+        solution.level_change = kept.level_change
+        return self._finish(scene, settings, kept.panels, solution, node_direct, kept, stages, span)
+
+    def _finish(self, scene: Scene, settings: BakeSettings, panels: Panels | None, solution: Solution,
+                node_direct: np.ndarray, kept: _Kept, stages: Stages, span: dict) -> BakeResult:
+        """The stages after the solve: near field, direct light at the corners, corner colours,
+        the error estimate and the statistics."""
+        light, radiosity, node_lighting = solution.light, solution.radiosity, solution.node_lighting
+        mesh, near_errors, near_stats = light.mesh, None, None
+        if settings.near_field:
+            node_lighting, near_errors, near_stats = stages.run(
+                "near field", span["near field"], near_field_correction, scene, light, radiosity, node_lighting,
+                kept.near_field, settings.column_cache if self.keep else 0, timer="near_field")
+        corner_direct = None
+        if settings.split_direct:
+            corner_direct = stages.run("direct light at vertices", span["split"], _direct_at_corners, light,
+                                       node_direct, node_lighting, timer="split")
+        corners = stages.run("per-corner colours", span["corners"], lambda _report: per_corner(
+            scene, mesh, radiosity, node_lighting, None if panels is None else panels.triangle_panel),
+            timer="reconstruct")
+        error = estimate.of_bake(mesh, mesh.node_radiosity(node_lighting), radiosity, light.engine.receiving_points,
+                                 self.method, solution.stats, solution.level_change, solution.noise, near_errors)
+        stages.done()
+        stats = {
+            "method": self.method,
+            "solver": self.solver,
+            "settings": dataclasses.asdict(settings),
+            "triangles": len(scene.triangles),
+            "panels": len(mesh.panel_corners),
+            "patches": mesh.patch_count,
+            "lights": len(scene.lights),
+            "nodes": mesh.node_count,
+            "channels": light.channels,
+            "near_field": near_stats,
+            "seconds": stages.seconds | {"total": sum(stages.seconds.values())},
+            "rays_cast": light.engine.rays_cast,
+            "peak_memory_estimate": _base_bytes(mesh) + solution.extra_bytes + light.engine.working_bytes()
+            + (kept.bytes() if self.keep else 0),
+            "error_estimate": error,
+            "resolved": kept is self._kept,
+            **solution.stats,
+        }
+        return BakeResult(*corners, stats, corner_direct)
+
+
+def _spans(settings: BakeSettings, has_direct: bool, first: bool) -> dict:
+    """The progress bar's span of each stage the bake runs (a re-solve: from the solve on)."""
+    return spans({name: share for name, share in SHARES.items()
+                  if (name != "direct" or has_direct) and (name != "near field" or settings.near_field)
+                  and (name != "split" or settings.split_direct)
+                  and (first or name not in ("discretise", "rays", "direct"))})
 
 
 def _direct_light(light: ArrivingLight, report) -> tuple[np.ndarray, np.ndarray]:
-    """The lights' and the sky's light, averaged over each patch (P, C) and at each node (N, C)."""
+    """The lights' and the sky's light per source and unit of its intensity (``DirectLighting``),
+    averaged over each patch (P, S, 3) and at each node (N, S, 3)."""
     mesh = light.mesh
-    return (light.on_patches(None, lambda f: report(f / 2)),
-            light.from_lights(mesh.node_points, mesh.node_normals, lambda f: report(0.5 + f / 2)))
+    return (light.factors_on_patches(None, lambda f: report(f / 2)),
+            light.direct.factors_at(mesh.node_points, mesh.node_normals, lambda f: report(0.5 + f / 2)))
 
 
 def _direct_at_corners(light: ArrivingLight, node_direct: np.ndarray, node_lighting: np.ndarray,

@@ -73,13 +73,32 @@ def receiver_nodes(scene: Scene, crease_angle: float,
     corner_node = np.full(triangle_count * 3, -1, dtype=np.int64)
     corner_node[valid_corners] = corner_group
     _borrow_neighbour_nodes(corner_node, weld.ravel(), scene.material[np.arange(triangle_count * 3) // 3])
+    reflectance, emission = node_surfaces(scene, corner_node.reshape(triangle_count, 3), group_count)
     return {
         "node_points": points,
         "node_normals": node_normals,
-        "node_reflectance": mean(scene.reflectance[triangle_of]),
-        "node_emission": mean(scene.emission[triangle_of]),
+        "node_reflectance": reflectance,
+        "node_emission": emission,
         "corner_node": corner_node.reshape(triangle_count, 3),
     }
+
+
+def node_surfaces(scene: Scene, corner_node: np.ndarray, node_count: int) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 3) reflectance and (N, 3) emission of each node: the means of its corners' triangles',
+    weighted by their areas (``corner_node`` (T, 3); zero-area triangles have no weight)."""
+    corners = triangle_corners(scene.vertices, scene.triangles)
+    areas = areas_and_normals(corners)[0]
+    valid_corners = np.flatnonzero(np.repeat(~degenerate(corners), 3))
+    group = corner_node.ravel()[valid_corners]
+    weight = areas[valid_corners // 3]
+    totals = np.bincount(group, weights=weight, minlength=node_count)
+
+    def mean(values: np.ndarray) -> np.ndarray:
+        values = values[valid_corners // 3]
+        return np.stack([np.bincount(group, weights=weight * column, minlength=node_count) for column in values.T],
+                        axis=1) / totals[:, None]
+
+    return mean(scene.reflectance), mean(scene.emission)
 
 
 def inset(towards_faces: np.ndarray, extent: float) -> np.ndarray:

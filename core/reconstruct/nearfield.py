@@ -25,7 +25,7 @@ and the near form factors of a node sum to at most 1.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -75,7 +75,7 @@ class NearField:
     corner_receiver : (K, 3) int, the receiver holding the colour of the patch's surface at each
         of its corners.
     points, normals : (M, 3) where the interpolation nodes are evaluated.
-    reflectance, emission : (M, C) of their surfaces.
+    owner : (M,) int, the patch each interpolation node lies on (its surface's colours).
     """
 
     receiver: np.ndarray
@@ -85,22 +85,26 @@ class NearField:
     corner_receiver: np.ndarray
     points: np.ndarray
     normals: np.ndarray
-    reflectance: np.ndarray
-    emission: np.ndarray
+    owner: np.ndarray
 
     @property
     def pair_count(self) -> int:
         return len(self.receiver)
 
 
-def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_factors: FormFactors) -> NearField:
-    """The near pairs of ``mesh`` (discretised from ``scene``) with patches whose ``radiosity``
-    (P, C) is above DARK (a patch in the dark, inside a closed box or behind a wall, needs no
-    interpolation); ``form_factors(points, normals, receivers, sources)`` gives occluded
-    point-to-patch form factors pairwise."""
+def lit_patches(mesh: Discretization, radiosity: np.ndarray) -> np.ndarray:
+    """(P,) bool: the patches whose ``radiosity`` (P, C) is above DARK (a patch in the dark,
+    inside a closed box or behind a wall, needs no interpolation)."""
+    return radiosity.max(axis=1) > DARK * radiosity_scale(mesh, radiosity)
+
+
+def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_factors: FormFactors,
+               lit: np.ndarray) -> NearField:
+    """The near pairs of ``mesh`` (discretised from ``scene``) with the patches ``lit`` (P,)
+    bool (``lit_patches`` of their ``radiosity`` (P, C)); ``form_factors(points, normals,
+    receivers, sources)`` gives occluded point-to-patch form factors pairwise."""
     node_count = mesh.node_count
     corner_key, corner_output = _patch_corner_nodes(scene, mesh)
-    lit = radiosity.max(axis=1) > DARK * radiosity_scale(mesh, radiosity)
     receivers, patches, factors = _near_pairs(mesh.node_points, mesh.node_normals, mesh, lit, form_factors)
     # interpolation nodes at the corners of those patches that have no output node, unless
     # gathering at them all would cost more than GATHER_BUDGET point-patch pairs (then only
@@ -137,9 +141,17 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
         corner_receiver=corner_receiver[patches],
         points=points,
         normals=normals,
-        reflectance=mesh.patch_reflectance[owner_patch],
-        emission=mesh.patch_emission[owner_patch],
+        owner=owner_patch,
     )
+
+
+def with_patches(near: NearField, lit: np.ndarray) -> NearField:
+    """``near`` with only its pairs of the patches ``lit`` (P,) bool."""
+    keep = lit[near.patch]
+    if keep.all():
+        return near
+    return replace(near, receiver=near.receiver[keep], patch=near.patch[keep], form_factor=near.form_factor[keep],
+                   weights=near.weights[keep], corner_receiver=near.corner_receiver[keep])
 
 
 def corrected_lighting(near: NearField, mesh: Discretization, radiosity: np.ndarray, node_lighting: np.ndarray,
@@ -201,8 +213,8 @@ def reading_error(near: NearField, mesh: Discretization, radiosity: np.ndarray, 
 
 def _receiver_surfaces(near: NearField, mesh: Discretization, channels: int) -> tuple[np.ndarray, np.ndarray]:
     """Emission and reflectance (N + M, C) of the output nodes, then the interpolation nodes."""
-    return (np.concatenate([mesh.node_emission, near.emission])[:, :channels],
-            np.concatenate([mesh.node_reflectance, near.reflectance])[:, :channels])
+    return (np.concatenate([mesh.node_emission, mesh.patch_emission[near.owner]])[:, :channels],
+            np.concatenate([mesh.node_reflectance, mesh.patch_reflectance[near.owner]])[:, :channels])
 
 
 def _patch_corner_nodes(scene: Scene, mesh: Discretization) -> tuple[np.ndarray, np.ndarray]:

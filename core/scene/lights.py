@@ -219,3 +219,15 @@ class Environment:
         column = np.floor(u * width).astype(np.int64) % width
         row = np.minimum(np.floor(v * height).astype(np.int64), height - 1)
         return self.radiance[row, column]
+
+
+def source_intensities(lights: tuple, sky: np.ndarray | None, environment: float | None) -> np.ndarray:
+    """(S, 3) the intensities of the light sources (``transport.direct``): each light's power (a sun's
+    strength), then the sky's colour (None: no sky), then ``environment`` (a scale of its
+    image; None: no environment) in every channel."""
+    rows = [light.strength if isinstance(light, SunLight) else light.power for light in lights]
+    if sky is not None:
+        rows.append(np.asarray(sky, dtype=np.float64))
+    if environment is not None:
+        rows.append(np.full(3, float(environment)))
+    return np.array(rows, dtype=np.float64).reshape(-1, 3)

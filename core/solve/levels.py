@@ -32,6 +32,7 @@ class Solution:
     node_lighting : (N, C) the light G arriving at the receiver nodes.
     noise : (N, C) the standard error of ``node_lighting`` where Monte Carlo carried light, or None.
     level_change : the discretisation estimate from the last refinement level (``estimate``), or None.
+    patch_factors : (P, S, 3) each source's direct light over the patches per unit of its intensity.
     stats : the solver's statistics (shots or iterations, ...), with "refinements" and "monte_carlo".
     extra_bytes : the solver's own memory beyond the patches' arrays (cached columns, a matrix).
     """
@@ -41,20 +42,25 @@ class Solution:
     node_lighting: np.ndarray
     noise: np.ndarray | None
     level_change: float | None
+    patch_factors: np.ndarray
     stats: dict = field(default_factory=dict)
     extra_bytes: int = 0
 
 
-def solve(light: ArrivingLight, patch_direct: np.ndarray, node_direct: np.ndarray, settings,
-          stages: Stages) -> Solution:
-    """Solve on ``light``'s patches, whose mean direct light is ``patch_direct`` (P, C) (a lit
-    patch starts out as if it emitted what it reflects of it), with ``node_direct`` (N, C) at
-    the nodes; ``settings`` a resolved BakeSettings. Each of ``settings.refinement_levels``
-    levels splits the patches where radiosity jumps and goes on from where the last one was."""
+def solve(light: ArrivingLight, patch_factors: np.ndarray, node_direct: np.ndarray, settings,
+          stages: Stages, kept: dict | None = None) -> Solution:
+    """Solve on ``light``'s patches, whose mean direct light is ``patch_factors`` (P, S, 3) per
+    source (a lit patch starts out as if it emitted what it reflects of it), with
+    ``node_direct`` (N, C) at the nodes; ``settings`` a resolved BakeSettings. Each of
+    ``settings.refinement_levels`` levels splits the patches where radiosity jumps and goes on
+    from where the last one was. ``kept``: a dict in which the form factors computed for the last
+    level's patches (progressive's columns, the Jacobi and Gauss-Seidel matrix) are kept, and
+    found by a later solve on the same patches (``session``)."""
+    patch_direct = light.combined(patch_factors)
     if settings.solver == "hierarchical":
         radiosity, node_lighting, stats, extra = hierarchical.solve(light, patch_direct, node_direct, settings, stages)
-        return Solution(light, radiosity, node_lighting, None, None, stats | {"refinements": []}, extra)
-    solver = _Levels(light, settings, node_direct)
+        return Solution(light, radiosity, node_lighting, None, None, patch_factors, stats | {"refinements": []}, extra)
+    solver = _Levels(light, settings, node_direct, {} if kept is None else kept)
     levels = settings.refinement_levels
     monte_carlo = settings.solver == "progressive" and bool(settings.monte_carlo_rays)
     shots = (0.0, SHOTS_SHARE if monte_carlo else 1.0)
@@ -67,8 +73,9 @@ def solve(light: ArrivingLight, patch_direct: np.ndarray, node_direct: np.ndarra
                                          settings.refinement_threshold)
                 if len(chosen) == 0:
                     break
-                light, patch_direct = stages.run(f"refining {number} of {levels}", (0.0, 0.05), solver.refine,
-                                                 chosen, patch_direct, timer="refine")
+                light, patch_factors = stages.run(f"refining {number} of {levels}", (0.0, 0.05), solver.refine,
+                                                  chosen, patch_factors, timer="refine")
+                patch_direct = light.combined(patch_factors)
                 refinements.append({"split": int(len(chosen)), "patches": light.mesh.patch_count})
             # a level to be refined needs only roughly where light changes: it stops COARSE_TOLERANCE
             # looser (but no looser than 0.1, or than the tolerance itself)
@@ -84,7 +91,7 @@ def solve(light: ArrivingLight, patch_direct: np.ndarray, node_direct: np.ndarra
     if monte_carlo and not solver.stats["converged"]:
         with stages.within((SHOTS_SHARE, 1.0)):
             radiosity, node_lighting, noise = solver.monte_carlo(stages)
-    return Solution(solver.light, radiosity, node_lighting, noise, change,
+    return Solution(solver.light, radiosity, node_lighting, noise, change, patch_factors,
                     solver.stats | {"refinements": refinements}, solver.extra_bytes)
 
 
@@ -94,25 +101,26 @@ class _Levels:
     gather at their own receiving points; Jacobi and Gauss-Seidel start from the refined
     patches' inherited radiosity."""
 
-    def __init__(self, light: ArrivingLight, settings, node_direct: np.ndarray) -> None:
-        self.light, self.settings = light, settings
+    def __init__(self, light: ArrivingLight, settings, node_direct: np.ndarray, kept: dict) -> None:
+        self.light, self.settings, self.kept = light, settings, kept
         self.channels, self.node_direct = light.channels, node_direct
         self.state: ShootingState | None = None
         self.radiosity: np.ndarray | None = None  # the explicit solvers' last answer
         self.stats: dict = {}
         self.extra_bytes = 0
 
-    def refine(self, chosen: np.ndarray, patch_direct: np.ndarray, report) -> tuple[ArrivingLight, np.ndarray]:
+    def refine(self, chosen: np.ndarray, patch_factors: np.ndarray, report) -> tuple[ArrivingLight, np.ndarray]:
         """Split the patches ``chosen`` (``refine.split``) and move the solve onto them; returns
-        the light over the new patches and their mean direct light, inherited, then measured again
-        on the new children."""
+        the light over the new patches and their mean direct light per source (P, S, 3),
+        inherited, then measured again on the new children."""
         mesh, origin = refine.split(self.light.mesh, chosen)
         self.light = light = self.light.refined(self.light.engine.refined(mesh))
-        new = refine.children(origin, len(patch_direct))
-        patch_direct = patch_direct[origin]
+        self.kept.clear()  # the form factors were the old patches'
+        new = refine.children(origin, len(patch_factors))
+        patch_factors = patch_factors[origin]
         if light.has_direct:
-            patch_direct[new] = light.on_patches(new)
-        sources = mesh.patch_radiosity(patch_direct)
+            patch_factors[new] = light.factors_on_patches(new)
+        sources = mesh.patch_radiosity(light.combined(patch_factors))
         if self.state is not None:
             state = self.state
             patch_count = len(state.unshot)
@@ -130,7 +138,7 @@ class _Levels:
                                        state.shots, state.power_shot, state.power_captured, state.has_shot[origin])
         else:
             self.radiosity = self.radiosity[origin]
-        return light, patch_direct
+        return light, patch_factors
 
     def solve(self, sources: np.ndarray, tolerance: float, stages: Stages) -> tuple[np.ndarray, np.ndarray]:
         """Patch radiosity (P, C) and the light G arriving at the nodes (N, C), for the patches'
@@ -160,6 +168,7 @@ class _Levels:
             self.node_direct if nodes_receive else None,
             tolerance=tolerance, ambient=settings.ambient, max_shots=max_shots,
             cache_bytes=settings.column_cache, report=report, state=self.state, first=first,
+            cache=self.kept.setdefault("columns", {}),
         )
         self.extra_bytes = max(self.extra_bytes, stats["cached_columns"] * 8 * (mesh.patch_count + mesh.node_count))
         self.stats = stats
@@ -177,7 +186,9 @@ class _Levels:
                 "use solver='progressive', a larger patch_size, fewer refinement_levels, or raise memory_budget"
             )
         self.extra_bytes = max(self.extra_bytes, matrix_bytes)
-        return self.light.engine.patch_rows(np.arange(mesh.patch_count), lambda f: report(f, "matrix"))
+        if "matrix" not in self.kept:
+            self.kept["matrix"] = self.light.engine.patch_rows(np.arange(mesh.patch_count), lambda f: report(f, "matrix"))
+        return self.kept["matrix"]
 
     def _iterate(self, matrix: np.ndarray, sources: np.ndarray, tolerance: float, report) -> np.ndarray:
         """Jacobi or Gauss-Seidel on ``matrix``, from the last level's answer if there was one."""

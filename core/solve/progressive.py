@@ -55,6 +55,7 @@ def progressive(
     report: Report = quiet,
     state: ShootingState | None = None,
     first: np.ndarray | None = None,
+    cache: dict | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Progressive refinement (Cohen, Chen, Wallace and Greenberg 1988): repeatedly shoot the
     patch q with the most unshot power, A_q sum_c |U_q,c| / L_c with L_c all the light of
@@ -78,7 +79,8 @@ def progressive(
     their own light goes out first, and what they reflect later waits like any other light (an
     emitter that reflects is lit again by every shot, so "until the emitters have nothing left"
     would last until the whole solve converges). That first phase is at most one shot per patch
-    of ``first``.
+    of ``first``. ``cache`` (q: (F[:, q], share)) holds the columns kept, and may come filled
+    from an earlier solve with the same ``columns`` (a re-solve: ``session``).
 
     Stops when, in every channel, the light still unshot, with all its future bounces in a
     closed scene, sum A |U| / (1 - rho_mean), is at most ``tolerance`` of all the light,
@@ -104,7 +106,7 @@ def progressive(
     total_area = areas.sum()
     mean_reflectance = (areas @ reflectance) / total_area
     gain = 1.0 / (1.0 - mean_reflectance)  # (C,) all future bounces, closed scene
-    cache: dict[int, tuple[np.ndarray, float]] = {}  # q: F[:, q], capture
+    cache = {} if cache is None else cache  # q: F[:, q], capture
     cache_limit = max(batch, cache_bytes // (8 * len(radiosity)))
     limit = state.shots + (max_shots if max_shots is not None else np.inf)  # converges for rho < 1
     shots_before = state.shots

@@ -4,6 +4,8 @@ Every stage that needs light at points asks one ``ArrivingLight``."""
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 
 from ..mesh.discretize import Discretization
@@ -13,10 +15,17 @@ from .formfactors import FormFactorEngine
 
 
 class ArrivingLight:
-    """G at points (m, 3) facing unit normals (m, 3), as (m, C) arrays of the bake's C channels."""
+    """G at points (m, 3) facing unit normals (m, 3), as (m, C) arrays of the bake's C channels.
 
-    def __init__(self, engine: FormFactorEngine, direct: DirectLighting, channels: int) -> None:
+    ``intensities`` (S, 3): the light sources' (``DirectLighting``; default: their own). ``kept``:
+    a dict in which the form factors to the emitters and the lights' shadows at the points asked
+    for ``sharp`` are kept, to be found again by a re-solve asking at the same points."""
+
+    def __init__(self, engine: FormFactorEngine, direct: DirectLighting, channels: int,
+                 intensities: np.ndarray | None = None, kept: dict | None = None) -> None:
         self.engine, self.direct, self.channels = engine, direct, channels
+        self.intensities = direct.intensities() if intensities is None else intensities
+        self.kept = kept
 
     @property
     def mesh(self) -> Discretization:
@@ -29,23 +38,49 @@ class ArrivingLight:
 
     def refined(self, engine: FormFactorEngine) -> ArrivingLight:
         """The same lights over ``engine``'s (refined) patches."""
-        return ArrivingLight(engine, self.direct, self.channels)
+        return ArrivingLight(engine, self.direct, self.channels, self.intensities, self.kept)
 
     def from_lights(self, points: np.ndarray, normals: np.ndarray, report: Report = quiet) -> np.ndarray:
         """From the lights and the sky, with their shadows."""
-        return self.direct.at_points(points, normals, report)[:, : self.channels]
+        return self.combined(self.direct.factors_at(points, normals, report))
 
     def on_patches(self, patches: np.ndarray | None = None, report: Report = quiet) -> np.ndarray:
         """(k, C) from the lights and the sky, averaged over the ``patches`` (indices; None: all)."""
+        return self.combined(self.factors_on_patches(patches, report))
+
+    def factors_on_patches(self, patches: np.ndarray | None = None, report: Report = quiet) -> np.ndarray:
+        """(k, S, 3) ``on_patches`` per source and unit of its intensity (``DirectLighting``)."""
         mesh = self.mesh
         chosen = slice(None) if patches is None else patches
-        return self.direct.patch_means(mesh.patch_corners[chosen], mesh.patch_normals[chosen], report)[:, : self.channels]
+        return self.direct.patch_factors(mesh.patch_corners[chosen], mesh.patch_normals[chosen], report)
+
+    def combined(self, factors: np.ndarray, intensities: np.ndarray | None = None) -> np.ndarray:
+        """(m, C) the light of the sources' ``factors`` (m, S, 3) at ``intensities`` (S, 3;
+        default: this light's)."""
+        return self.direct.combine(factors, self.intensities if intensities is None else intensities)[:, : self.channels]
 
     def sharp(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """From the emitting patches' first shot and the lights, without the sky: the direct
         light whose shadows start at a contact (``touching``)."""
-        lit = self.engine.emitted_light(points, normals) + self.direct.lights_at(points, normals)
+        emitters, to_emitters, light_factors = self._sharp_factors(points, normals)
+        lights = len(self.direct.lights)
+        lit = to_emitters @ self.mesh.patch_emission[emitters] + self.direct.combine(light_factors,
+                                                                                   self.intensities[:lights])
         return lit[:, : self.channels]
+
+    def _sharp_factors(self, points: np.ndarray, normals: np.ndarray) -> tuple:
+        """The emitting patches, the form factors (m, e) to them and the lights' ``factors``
+        (m, L, 3) at points (m, 3) facing normals (m, 3), kept in ``kept`` when there is one."""
+        key = None
+        if self.kept is not None:
+            key = hashlib.blake2b(np.ascontiguousarray(points).tobytes() + np.ascontiguousarray(normals).tobytes(),
+                                  digest_size=16).digest()
+            if key in self.kept:
+                return self.kept[key]
+        factors = (*self.engine.emitter_form_factors(points, normals), self.direct.light_factors_at(points, normals))
+        if key is not None:
+            self.kept[key] = factors
+        return factors
 
     def gathered(self, points: np.ndarray, normals: np.ndarray, radiosity: np.ndarray,
                  report: Report = quiet) -> np.ndarray:

@@ -15,7 +15,10 @@ output is G itself):
     environment, radiance L(d) from direction d:                 G = mean over cosine-weighted
           directions d that see no surface of L(d)
 
-Every term is times the visibility of the light from the point, by rays through ``Visibility``.
+Every term is times the visibility of the light from the point, by rays through ``Visibility``,
+and proportional to its source's intensity (power, strength, colour): the light of each source is
+kept per unit of it (``factors_at``, ``patch_factors``), so a re-solve after a light changed only
+its colour or strength combines them again without tracing a ray (``combine``).
 Lights do not block or reflect light (they are not geometry), as in Cycles. A point or spot
 light of radius r lights as its centre does (the irradiance of a uniformly bright sphere is that
 of a point of the same power) and is seen from a point as the disc of radius r facing it: its
@@ -32,7 +35,7 @@ import numpy as np
 
 from ..mesh.discretize import light_divisions
 from ..rays.visibility import RAY_EPSILON, Visibility
-from ..scene.lights import AreaLight, Environment, PointLight, SpotLight, SunLight
+from ..scene.lights import AreaLight, Environment, PointLight, SpotLight, SunLight, source_intensities
 from ..util import parallel
 from ..util.geometry import areas_and_normals, subdivide, tangent_frames
 from .raycast import RayCaster, stratified_samples
@@ -75,7 +78,7 @@ class DirectLighting:
             pieces = subdivide(light.triangles, int(n))
             areas, normals = areas_and_normals(pieces)
             caster = RayCaster(pieces, normals, areas, visibility, rays, seed + 1 + index)
-            self._area.append((light, pieces, caster))
+            self._area.append((index, pieces, caster))
 
     @property
     def light_pieces(self) -> int:
@@ -86,35 +89,60 @@ class DirectLighting:
     def empty(self) -> bool:
         return not self.lights and not self.sky.any() and self.environment is None
 
+    @property
+    def source_count(self) -> int:
+        """S: the lights, then the sky if it shines, then the environment if there is one."""
+        return len(self.lights) + int(bool(self.sky.any())) + int(self.environment is not None)
+
+    def intensities(self) -> np.ndarray:
+        """(S, 3) what each source's light is proportional to: a light's power (a sun's
+        strength), the sky's colour, 1 for the environment (its image is in its factors)."""
+        return source_intensities(self.lights, self.sky if self.sky.any() else None,
+                                  None if self.environment is None else 1.0)
+
     def at_points(self, points: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
         """(m, 3) G at points (m, 3) facing unit normals (m, 3)."""
-        if self.empty:
-            return np.zeros((len(points), 3))
+        return self.combine(self.factors_at(points, normals, report))
+
+    def factors_at(self, points: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
+        """(m, S, 3) G at points (m, 3) facing unit normals (m, 3), per source, per unit of its
+        intensity (``combine`` sums them)."""
         return self._in_blocks(points, normals, self._point_block, report)
 
-    def lights_at(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
-        """(m, 3) G at points from the lights alone, without the sky (as ``at_points`` has it)."""
+    def light_factors_at(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """(m, L, 3) ``factors_at`` of the L lights alone, without the sky."""
         if not self.lights:
-            return np.zeros((len(points), 3))
-        return self._in_blocks(points, normals, lambda block, block_normals, first: self._sharp(
+            return np.zeros((len(points), 0, 3))
+        factors = self._in_blocks(points, normals, lambda block, block_normals, first: self._sharp(
             block, block_normals, first) + self._area_lights(block, block_normals), lambda _fraction: None)
+        return factors[:, : len(self.lights)]
 
     def patch_means(self, corners: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
-        """(P, 3) G over patches (P, 3, 3): the mean over ``rays`` stratified points of each
-        patch for point, spot and sun lights (their shadows are sharp); at the centroid for area
-        lights and the sky, whose light changes smoothly."""
-        if self.empty:
-            return np.zeros((len(corners), 3))
+        """(P, 3) G over patches (P, 3, 3) (``patch_factors`` combined)."""
+        return self.combine(self.patch_factors(corners, normals, report))
+
+    def patch_factors(self, corners: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
+        """(P, S, 3) per source and unit intensity, G over patches (P, 3, 3): the mean over
+        ``rays`` stratified points of each patch for point, spot and sun lights (their shadows
+        are sharp); at the centroid for area lights and the sky, whose light changes smoothly."""
         return self._in_blocks(corners, normals, self._patch_block, report)
 
+    def combine(self, factors: np.ndarray, intensities: np.ndarray | None = None) -> np.ndarray:
+        """(m, 3) sum_s factors[:, s] x intensities[s]: the light of the sources (m, S, 3) at
+        ``intensities`` (S, 3) (default: the scene's own)."""
+        intensities = self.intensities() if intensities is None else intensities
+        return np.einsum("msc,sc->mc", factors, intensities) if factors.shape[1] else np.zeros((len(factors), 3))
+
     def _in_blocks(self, items, normals, block, report) -> np.ndarray:
+        if self.source_count == 0:
+            return np.zeros((len(items), 0, 3))
         starts = range(0, len(items), POINTS_PER_BLOCK)
         parts = []
         for done, part in enumerate(parallel.map_ordered(
                 lambda s: block(items[s: s + POINTS_PER_BLOCK], normals[s: s + POINTS_PER_BLOCK], s), starts), 1):
             parts.append(part)
             report(done / len(starts))
-        return np.concatenate(parts) if parts else np.zeros((0, 3))
+        return np.concatenate(parts) if parts else np.zeros((0, self.source_count, 3))
 
     def _point_block(self, points, normals, first) -> np.ndarray:
         return self._sharp(points, normals, first) + self._smooth(points, normals, first)
@@ -122,15 +150,15 @@ class DirectLighting:
     def _patch_block(self, corners, normals, first) -> np.ndarray:
         samples = stratified_samples(corners, self.rays, self.seed + first)  # (k, S, 3)
         sharp = self._sharp(samples.reshape(-1, 3), np.repeat(normals, self.rays, axis=0), first, paired=True)
-        return sharp.reshape(len(corners), self.rays, 3).mean(axis=1) + self._smooth(
+        return sharp.reshape(len(corners), self.rays, *sharp.shape[1:]).mean(axis=1) + self._smooth(
             corners.mean(axis=1), normals, first)
 
     def _sharp(self, points, normals, first: int, paired: bool = False) -> np.ndarray:
-        """Point, spot and sun lights at points: one shadow ray each to a point light or along a
-        sun, ``rays`` to points of a light's disc or directions of a sun's cone (one each when
-        ``paired``: the points are a patch's ``rays`` stratified samples, the i-th paired with the
-        i-th stratum of the light)."""
-        result = np.zeros((len(points), 3))
+        """(m, S, 3) point, spot and sun lights at points: one shadow ray each to a point light
+        or along a sun, ``rays`` to points of a light's disc or directions of a sun's cone (one
+        each when ``paired``: the points are a patch's ``rays`` stratified samples, the i-th
+        paired with the i-th stratum of the light)."""
+        result = np.zeros((len(points), self.source_count, 3))
         for index, light in enumerate(self.lights):
             if isinstance(light, SunLight):
                 cosine = -(normals @ light.direction)
@@ -141,7 +169,7 @@ class DirectLighting:
                 else:
                     towards = np.broadcast_to(-light.direction, (len(lit), 3))
                     seen = ~self._blocked(points[lit], normals[lit], towards, None)
-                result[lit] += (cosine[lit] * seen)[:, None] * light.strength / math.pi
+                result[lit, index] = (cosine[lit] * seen / math.pi)[:, None]
             elif isinstance(light, (PointLight, SpotLight)):
                 offset = light.position - points
                 distance = np.linalg.norm(offset, axis=1)
@@ -155,7 +183,7 @@ class DirectLighting:
                     seen = self._seen_on_disc(points[lit], normals[lit], light.position, light.radius, samples)
                 else:
                     seen = ~self._blocked(points[lit], normals[lit], offset[lit], np.ones(len(lit)))
-                result[lit] += (strength[lit] * seen)[:, None] * light.power / (4 * math.pi**2)
+                result[lit, index] = (strength[lit] * seen / (4 * math.pi**2))[:, None]
         return result
 
     def _light_samples(self, chosen: np.ndarray, first: int, light: int, paired: bool) -> np.ndarray:
@@ -191,25 +219,29 @@ class DirectLighting:
         return self._unblocked(points, normals, directions, None).mean(axis=1)
 
     def _smooth(self, points, normals, first) -> np.ndarray:
-        """Area lights and the sky."""
+        """(m, S, 3) area lights and the sky."""
         result = self._area_lights(points, normals)
         if self.sky.any() or self.environment is not None:
             directions, open_sky = self._open_sky(points, normals, first)
+            column = len(self.lights)
             if self.sky.any():
-                result += (1.0 - (~open_sky).mean(axis=1))[:, None] * self.sky
+                result[:, column] = (1.0 - (~open_sky).mean(axis=1))[:, None]
+                column += 1
             if self.environment is not None:
-                result += (open_sky[..., None] * self.environment.at(directions)).mean(axis=1)
+                result[:, column] = (open_sky[..., None] * self.environment.at(directions)).mean(axis=1)
         return result
 
     def _area_lights(self, points, normals) -> np.ndarray:
-        """Area lights at points: kernel-weighted shadow rays to stratified samples."""
-        result = np.zeros((len(points), 3))
+        """(m, S, 3) area lights at points, per unit of power: kernel-weighted shadow rays to
+        stratified samples, times 1 / (pi A)."""
+        result = np.zeros((len(points), self.source_count, 3))
         count = len(points)
-        for light, pieces, caster in self._area:
+        for index, pieces, caster in self._area:
             sources = len(pieces)
             factors = caster.form_factors(points, normals, np.repeat(np.arange(count), sources),
                                           np.tile(np.arange(sources), count))
-            result += factors.reshape(count, sources).sum(axis=1)[:, None] * light.radiance
+            area = areas_and_normals(self.lights[index].triangles)[0].sum()
+            result[:, index] = (factors.reshape(count, sources).sum(axis=1) / (math.pi * area))[:, None]
         return result
 
     def _open_sky(self, points, normals, first) -> tuple[np.ndarray, np.ndarray]:
@@ -257,3 +289,4 @@ def _strata(count: int) -> np.ndarray:
     """(n^2, 2) centres of the n x n cells of the unit square, n = round(sqrt(count))."""
     side = int(round(math.sqrt(count)))
     return (np.stack(np.meshgrid(np.arange(side), np.arange(side)), axis=-1).reshape(-1, 2) + 0.5) / side
+

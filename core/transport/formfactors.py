@@ -3,6 +3,7 @@ blocks sized to a ray budget so that memory stays bounded and progress is report
 
 from __future__ import annotations
 
+import copy
 from functools import cached_property
 
 import numpy as np
@@ -75,13 +76,26 @@ class FormFactorEngine:
         pair)."""
         return self._point_raycaster.form_factors(points, normals, receivers, sources)
 
+    def with_surfaces(self, mesh: Discretization) -> FormFactorEngine:
+        """This engine for ``mesh``, this one's patches with other reflectance and emission
+        (``mesh.surfaces.resurfaced``): its rays, samples and receiving points are shared."""
+        engine = copy.copy(self)
+        engine.mesh = mesh
+        return engine
+
     def emitted_light(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """(m, 3) sum_e F(point -> e) E_e over the emitting patches e: the light of the first
         shot of each emitter at points (m, 3) facing normals (m, 3)."""
+        emitters, factors = self.emitter_form_factors(points, normals)
+        return factors @ self.mesh.patch_emission[emitters]
+
+    def emitter_form_factors(self, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The emitting patches (e,) and the form factors (m, e) from points (m, 3) facing normals
+        (m, 3) to them."""
         mesh = self.mesh
         emitters = np.flatnonzero(mesh.patch_emission.any(axis=1))
         if len(emitters) == 0 or len(points) == 0:
-            return np.zeros((len(points), mesh.patch_emission.shape[1]))
+            return emitters, np.zeros((len(points), len(emitters)))
         receivers = np.repeat(np.arange(len(points)), len(emitters))
         sources = np.tile(emitters, len(points))
         size = PAIRS_PER_BLOCK
@@ -89,7 +103,7 @@ class FormFactorEngine:
             lambda start: self.point_form_factors(points, normals, receivers[start:start + size],
                                                   sources[start:start + size]),
             range(0, len(receivers), size))))
-        return factors.reshape(len(points), len(emitters)) @ mesh.patch_emission[emitters]
+        return emitters, factors.reshape(len(points), len(emitters))
 
     @cached_property
     def _point_raycaster(self) -> raycast.RayCaster:
@@ -145,6 +159,20 @@ class FormFactorEngine:
         sources = np.flatnonzero(radiosity.any(axis=1))
         parts = self._blocks(points, normals, sources, lambda block: block @ radiosity[sources], report)
         return np.concatenate(list(parts)).reshape(len(points), radiosity.shape[1])
+
+    def gather_rows(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray,
+                    report: Report = quiet) -> np.ndarray:
+        """(m, k) F(point -> q) for the patches ``sources`` (k,), to ``gather_with`` again."""
+        if len(points) == 0:
+            return np.zeros((0, len(sources)))
+        return np.concatenate(list(self._blocks(points, normals, sources, lambda block: block, report)))
+
+    def gather_with(self, rows: np.ndarray, sources: np.ndarray, radiosity: np.ndarray) -> np.ndarray:
+        """(m, C) ``gather`` from ``gather_rows``' rows (m, k) of the patches ``sources``, which
+        hold every patch of ``radiosity`` (P, C) that shines (the same sums, block by block)."""
+        size = self._rows_per_block(len(sources))
+        return np.concatenate([rows[start:start + size] @ radiosity[sources]
+                               for start in range(0, len(rows), size)] or [np.zeros((0, radiosity.shape[1]))])
 
     def _blocks(self, points, normals, sources, finish, report):
         """finish(F block) for consecutive blocks of points, computed in parallel, in order."""
