@@ -19,6 +19,8 @@ STUDIES = {
     "sponza": ("our bakes against Cycles' on Sponza: sponza.md", "12 min"),
     "path_traced": ("the last sponza run's bakes against path tracing, checked on the Cornell box: path_traced.md",
                     "3 min"),
+    "resolve": ("re-solves after colour changes against first and fresh bakes (Cornell box, Sponza): resolve.md",
+                "10 min"),
     "rescore": ("a core bake of the sample Cornell box scored against the last versus_cycles run's Cycles answer "
                 "(prints; writes nothing)", "1 min"),
 }

@@ -65,20 +65,20 @@ class _Kept:
     scene: Scene  # the scene it baked: its geometry and light sources
     settings: BakeSettings
     panels: Panels | None
-    light: ArrivingLight  # over the last level's patches: the engine, its rays, the sources
-    patch_factors: np.ndarray  # (P, S, 3) each source's light over the patches, per unit
-    node_factors: np.ndarray  # (N, S, 3) and at the nodes
-    level_change: float | None
-    solver: dict = field(default_factory=dict)  # levels.solve's form factors
+    solver: dict = field(default_factory=dict)  # levels.solve's form factors and gather rays
     near_field: dict = field(default_factory=dict)  # correction's pairs, rows and factors
     sharp: dict = field(default_factory=dict)  # ArrivingLight.sharp's form factors and shadows
+    # from the solve on: the light over the last level's patches (the engine, its rays, the
+    # sources), each source's light per unit over those patches (P, S, 3) and at the nodes (N, S, 3)
+    light: ArrivingLight | None = None
+    patch_factors: np.ndarray | None = None
+    node_factors: np.ndarray | None = None
+    level_change: float | None = None
 
     def bytes(self) -> int:
         """About what it holds beyond the scene."""
-        arrays = [self.patch_factors, self.node_factors, *self.near_field.values()]
-        arrays += [column for column, _ in self.solver.get("columns", {}).values()] + [self.solver.get("matrix")]
-        arrays += [part for parts in self.sharp.values() for part in parts]
-        return sum(item.nbytes for item in arrays if isinstance(item, np.ndarray)) + _base_bytes(self.light.mesh)
+        held = (self.patch_factors, self.node_factors, self.solver, self.near_field, self.sharp)
+        return _held_bytes(held) + _base_bytes(self.light.mesh)
 
 
 class BakeSession:
@@ -88,15 +88,16 @@ class BakeSession:
     colour, the sky's colour, the environment's strength) is re-solved with them instead of
     baked afresh: ``bake`` chooses, and ``change`` says why it would not re-solve.
 
-        session = BakeSession(preset_knobs)
+        session = BakeSession(**knobs)
         first = session.bake(scene)         # a bake, and what it can reuse
         again = session.bake(recoloured)    # a re-solve: again.stats["resolved"] is True
 
     A re-solve solves on the first bake's last patches (its refinement levels are not redone)
     and finds the form factors kept (progressive's columns while they fit ``column_cache``;
-    Jacobi's and Gauss-Seidel's matrix); Monte Carlo and the hierarchical solver solve again
-    from the kept patches and rays. It matches a fresh bake of the new colours within the bake's
-    error estimate (tests/core/test_session.py).
+    Jacobi's and Gauss-Seidel's matrix; where the final gather's rays land); Monte Carlo traces
+    its particles again and the hierarchical solver links again. It matches a fresh bake of the
+    new colours within the bake's error estimate (tests/core/test_session.py; docs/methods.md,
+    "Re-solves"). ``keep=False``: bakes that keep nothing (``core.bake``).
     """
 
     def __init__(self, method: str = "raycast", solver: str = "progressive", keep: bool = True, **knobs) -> None:
@@ -141,7 +142,7 @@ class BakeSession:
             probing=settings.probe_rays), timer="setup")
         direct = DirectLighting(scene.lights, scene.sky, engine.visibility, settings.rays_per_form_factor,
                                 settings.seed, scene.environment)
-        kept = _Kept(scene, settings, panels, None, None, None, None)
+        kept = _Kept(scene, settings, panels)
         light = ArrivingLight(engine, direct, channels, kept=kept.sharp if self.keep else None)
         patch_factors = np.zeros((mesh.patch_count, direct.source_count, 3))
         node_factors = np.zeros((mesh.node_count, direct.source_count, 3))
@@ -240,6 +241,18 @@ def _direct_at_corners(light: ArrivingLight, node_direct: np.ndarray, node_light
     emitted = light.engine.emitted_light(mesh.node_points, mesh.node_normals)[:, : light.channels]
     direct = at_corners(mesh, np.minimum(node_direct + emitted, node_lighting))
     return np.ascontiguousarray(np.broadcast_to(direct, direct.shape[:2] + (3,)))
+
+
+def _held_bytes(value) -> int:
+    """The bytes of the arrays in ``value``: arrays, and dicts, sequences and dataclasses of them
+    (an array held twice counts twice)."""
+    if hasattr(value, "nbytes"):
+        return value.nbytes
+    if isinstance(value, dict):
+        value = list(value.values())
+    elif dataclasses.is_dataclass(value):
+        value = [getattr(value, item.name) for item in dataclasses.fields(value)]
+    return sum(_held_bytes(item) for item in value) if isinstance(value, (list, tuple)) else 0
 
 
 def _base_bytes(mesh: Discretization) -> int:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import threading
 import time
+from typing import Callable
 
 from .bake import BakeResult, bake
 from .scene import Scene
@@ -19,12 +20,13 @@ from .util.progress import BakeCancelled
 
 
 class BakeJob:
-    """``bake(scene, method, solver, **knobs)`` in slices. Nothing runs until the first step."""
+    """``bake(scene, method, solver, **knobs)`` in slices (or ``work(progress)``: see
+    ``running``). Nothing runs until the first step."""
 
     def __init__(self, scene: Scene, method: str = "raycast", solver: str = "progressive", **knobs) -> None:
         self.fraction = 0.0
         self.message = "waiting"
-        self._arguments = (scene, method, solver, knobs)
+        self._work_function: Callable = lambda progress: bake(scene, method, solver, progress=progress, **knobs)
         self._budget = 0.0
         self._slice_start = 0.0
         self._cancel = False
@@ -34,6 +36,14 @@ class BakeJob:
         self._go = threading.Event()  # the host lets the worker run a slice
         self._paused = threading.Event()  # the worker stopped: slice spent, or finished
         self._thread = threading.Thread(target=self._work, name="radiosity-bake", daemon=True)
+
+    @classmethod
+    def running(cls, work: Callable) -> "BakeJob":
+        """A job of ``work(progress)``, which calls ``progress(fraction, message)`` as ``bake``
+        does (a session's bakes, one after another) and returns what ``result()`` gives."""
+        job = cls(None)
+        job._work_function = work
+        return job
 
     @property
     def done(self) -> bool:
@@ -74,9 +84,8 @@ class BakeJob:
         return self._result
 
     def _work(self) -> None:
-        scene, method, solver, knobs = self._arguments
         try:
-            self._result = bake(scene, method, solver, progress=self._report, **knobs)
+            self._result = self._work_function(self._report)
         except BaseException as error:  # handed to the host thread by result()
             self._error = error
         finally:

@@ -1,11 +1,12 @@
 """The Blender layer: settings (``properties``), scene reading (``extract``, ``materials``),
 the bake as Blender runs it (``baking``), write-back (``write``), operators, panel, the
-``-c radiosity`` command (``cli``) and a picture of the result (``preview``). It gathers
+``-c radiosity`` command (``cli``), the sessions kept for re-solves (``sessions``) and Live
+re-solves while colours change (``live``), and a picture of the result (``preview``). It gathers
 settings and calls ``core``; it holds no mathematics."""
 
-from . import cli, operators, panel, properties
+from . import cli, live, operators, panel, properties, sessions
 
-modules = (properties, operators, panel, cli)
+modules = (properties, sessions, live, operators, panel, cli)
 
 
 def register() -> None:

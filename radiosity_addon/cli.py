@@ -65,6 +65,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--lighting-only", action="store_true", help="write the lighting, not the full radiosity")
     parser.add_argument("--attribute", metavar="NAME", help="colour attribute to write (default: the file's, "
                         "'Radiosity' when unset)")
+    parser.add_argument("--light-groups", action="store_true",
+                        help="also write each light group's light into '<attribute> <group>' (re-solves: the "
+                        "geometry work is done once)")
     for name, flag in STORAGE_OPTIONS.items():
         prop = bpy.types.Scene.bl_rna.properties["radiosity"].fixed_type.properties[name]
         if prop.type == "ENUM":
@@ -157,8 +160,9 @@ def _bake(item: Plan, preset: str | None, knobs: dict, properties: dict, quiet: 
     scene = bpy.context.scene
     _apply(scene.radiosity, preset, knobs, properties)
     prepared = prepare(scene)
-    result = run_straight(prepared, echo=not quiet, label=label)
-    outcome = finish(prepared, result)
+    baked = run_straight(prepared, echo=not quiet, label=label)
+    outcome = finish(prepared, baked)
+    result = baked.result
     scene.radiosity.last_report = outcome.summary
     if item.output is not None:
         os.makedirs(os.path.dirname(os.path.abspath(item.output)), exist_ok=True)
@@ -182,6 +186,8 @@ def _check_preset(preset: str | None, knobs: dict) -> None:
 def _properties(options: argparse.Namespace) -> dict:
     """The ``scene.radiosity`` properties the command line sets (beyond the knobs)."""
     properties = {"output": "LIGHTING"} if options.lighting_only else {}
+    if options.light_groups:
+        properties["light_groups"] = True
     if options.attribute is not None:
         properties["attribute_name"] = options.attribute
     for name in STORAGE_OPTIONS:

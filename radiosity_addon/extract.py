@@ -9,6 +9,7 @@ colour x strength as sky light.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -38,10 +39,39 @@ class MeshTarget:
 
 
 @dataclass
+class LightGroups:
+    """The light group (Object > Shading > Light Group; World > Settings) of each light source of
+    a scene: its lights (L,), its triangles (T,) (their objects'; they count where they emit) and
+    its world; "" for none."""
+
+    lights: list[str]
+    triangles: np.ndarray
+    world: str
+
+    def names(self) -> list[str]:
+        """The groups that hold a source, in the order first met."""
+        return list(dict.fromkeys(name for name in [*self.lights, *np.unique(self.triangles), self.world] if name))
+
+
+@dataclass
 class Extraction:
     scene: Scene
     targets: list[MeshTarget]
     notes: list[str] = field(default_factory=list)
+    light_groups: LightGroups | None = None
+
+    def lit_by(self, group: str) -> Scene:
+        """The scene lit by the sources of light group ``group`` alone: the other lights at no
+        power, the other objects' emission off, the world dark unless it is in the group."""
+        scene, groups = self.scene, self.light_groups
+        dark = [dataclasses.replace(light, **{"strength" if isinstance(light, SunLight) else "power": np.zeros(3)})
+                for light in scene.lights]
+        lights = tuple(light if name == group else off for light, off, name in zip(scene.lights, dark, groups.lights))
+        emission = np.where((groups.triangles == group)[:, None], scene.emission, 0.0)
+        world = groups.world == group
+        return dataclasses.replace(scene, material=scene.material, lights=lights, emission=emission,
+                                   sky=scene.sky if world else np.zeros(3),
+                                   environment=scene.environment if world else None)
 
 
 class _Builder:
@@ -62,6 +92,8 @@ class _Builder:
         self.targets: list[MeshTarget] = []
         self.notes: list[str] = []
         self.lights: list = []
+        self.light_groups: list[str] = []  # per light
+        self.triangle_groups: list[np.ndarray] = []  # per mesh: its object's light group
         self.receivers: set[str] | None = None
         self.real_instances = False
         self.vertex_count = 0
@@ -140,7 +172,9 @@ def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True,
         casts_shadows=np.concatenate(builder.casts),
         corner_normals=np.concatenate(builder.corner_normals) if shading_normals else None,
     )
-    return Extraction(scene, builder.targets, builder.notes)
+    groups = LightGroups(builder.light_groups, np.concatenate(builder.triangle_groups),
+                         getattr(world, "lightgroup", "") if world is not None else "")
+    return Extraction(scene, builder.targets, builder.notes, groups)
 
 
 def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, instancer: str | None) -> None:
@@ -179,6 +213,7 @@ def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, instancer: str | None)
     builder.reflects.append(np.full(count, original.radiosity.reflects))
     builder.emits.append(np.full(count, original.radiosity.emits))
     builder.casts.append(np.full(count, getattr(original, "visible_shadow", True)))
+    builder.triangle_groups.append(np.full(count, getattr(original, "lightgroup", ""), dtype=object))
     start = builder.triangle_count
     builder.vertex_count += len(world)
     builder.triangle_count += count
@@ -264,6 +299,8 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
             builder.notes.append(f"light '{name}': spread {np.degrees(light.spread):.0f} deg treated as 180 deg")
         builder.lights.append(area_light(light.shape, light.size, light.size_y, matrix, power,
                                          getattr(light, "normalize", True)))
+    added = len(builder.lights) - len(builder.light_groups)  # one, or none for a kind not baked
+    builder.light_groups += [getattr(obj.original, "lightgroup", "")] * added
 
 
 def _world_light(world, builder: _Builder) -> tuple[np.ndarray, Environment | None]:

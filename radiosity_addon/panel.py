@@ -32,6 +32,10 @@ def draw_settings(layout, settings) -> None:
     row.operator("radiosity.bake", icon="LIGHT_SUN")
     row.operator("radiosity.clear", text="", icon="TRASH")
     layout.operator("radiosity.use_in_materials", icon="NODE_MATERIAL")
+    layout.prop(settings, "light_groups")
+    layout.prop(settings, "live", icon="PLAY" if not settings.live else "PAUSE")
+    if settings.live and settings.live_status:
+        layout.label(text=settings.live_status, icon="INFO")
     if settings.last_report:
         box = layout.box()
         box.label(text=settings.last_report, icon="INFO")

@@ -40,6 +40,12 @@ def choice_items(name: str, labels: dict[str, tuple[str, str]]) -> list[tuple[st
     return [(value, *labels[value]) for value in KNOB[name].choices]
 
 
+def _live_toggled(settings, context) -> None:
+    from . import live  # live needs the bake, which needs these settings registered first
+
+    live.toggled(settings, context)
+
+
 class RadiositySettings(bpy.types.PropertyGroup):
     preset: bpy.props.EnumProperty(
         name="Preset", items=PRESET_ITEMS, default="PREVIEW",
@@ -174,6 +180,17 @@ class RadiositySettings(bpy.types.PropertyGroup):
         description="Write colours only on the selected objects; the rest of the scene still lights and shades "
         "them",
     )
+    light_groups: bpy.props.BoolProperty(
+        name="Per Light Group", default=False,
+        description="Also write the light of each light group (View Layer > Light Groups; set on lights, emitting "
+        "objects and the world) into '<Attribute> <group>': the geometry work is done once, each group re-solves",
+    )
+    live: bpy.props.BoolProperty(
+        name="Live", default=False, update=_live_toggled,
+        description="After a bake, re-solve and rewrite the colours whenever a material's colour, a light's colour or "
+        "power or the world's colour or strength changes (the geometry work of the bake is reused)",
+    )
+    live_status: bpy.props.StringProperty(name="Live", default="", description="What Live last did")
     last_report: bpy.props.StringProperty(name="Last Bake", default="", description="What the last bake did")
 
     def knobs(self) -> dict:

@@ -92,17 +92,20 @@ class NearField:
         return len(self.receiver)
 
 
-def lit_patches(mesh: Discretization, radiosity: np.ndarray) -> np.ndarray:
-    """(P,) bool: the patches whose ``radiosity`` (P, C) is above DARK (a patch in the dark,
-    inside a closed box or behind a wall, needs no interpolation)."""
-    return radiosity.max(axis=1) > DARK * radiosity_scale(mesh, radiosity)
+def lit_patches(mesh: Discretization, radiosity: np.ndarray, share: float = DARK) -> np.ndarray:
+    """(P,) bool: the patches whose ``radiosity`` (P, C) is above ``share`` of the scale of the
+    scene's (default DARK: a patch in the dark, inside a closed box or behind a wall, needs no
+    interpolation)."""
+    return radiosity.max(axis=1) > share * radiosity_scale(mesh, radiosity)
 
 
 def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_factors: FormFactors,
-               lit: np.ndarray) -> NearField:
+               lit: np.ndarray, interpolate: bool = True) -> NearField:
     """The near pairs of ``mesh`` (discretised from ``scene``) with the patches ``lit`` (P,)
     bool (``lit_patches`` of their ``radiosity`` (P, C)); ``form_factors(points, normals,
-    receivers, sources)`` gives occluded point-to-patch form factors pairwise."""
+    receivers, sources)`` gives occluded point-to-patch form factors pairwise. Without
+    ``interpolate`` only the patches whose corners all have output nodes are read as linear (no
+    interpolation nodes, as beyond GATHER_BUDGET)."""
     node_count = mesh.node_count
     corner_key, corner_output = _patch_corner_nodes(scene, mesh)
     receivers, patches, factors = _near_pairs(mesh.node_points, mesh.node_normals, mesh, lit, form_factors)
@@ -111,7 +114,7 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
     # patches whose corners are all output nodes are read as linear)
     needed = np.unique(patches)
     missing = corner_output[needed] < 0
-    if len(np.unique(corner_key[needed][missing])) * radiosity.any(axis=1).sum() > GATHER_BUDGET:
+    if not interpolate or len(np.unique(corner_key[needed][missing])) * radiosity.any(axis=1).sum() > GATHER_BUDGET:
         whole = (corner_output[patches] >= 0).all(axis=1)
         receivers, patches, factors = receivers[whole], patches[whole], factors[whole]
         needed = np.unique(patches)
@@ -145,9 +148,16 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
     )
 
 
-def with_patches(near: NearField, lit: np.ndarray) -> NearField:
-    """``near`` with only its pairs of the patches ``lit`` (P,) bool."""
-    keep = lit[near.patch]
+def joined(first: NearField, second: NearField) -> NearField:
+    """The pairs of ``first`` and ``second``, near fields of one mesh without interpolation
+    nodes."""
+    assert len(first.points) == len(second.points) == 0
+    return replace(first, **{name: np.concatenate([getattr(first, name), getattr(second, name)])
+                             for name in ("receiver", "patch", "form_factor", "weights", "corner_receiver")})
+
+
+def with_pairs(near: NearField, keep: np.ndarray) -> NearField:
+    """``near`` with only the pairs ``keep`` (K,) bool."""
     if keep.all():
         return near
     return replace(near, receiver=near.receiver[keep], patch=near.patch[keep], form_factor=near.form_factor[keep],

@@ -40,6 +40,7 @@ import numpy as np
 
 from ..mesh.discretize import Discretization
 from ..util.geometry import areas_and_normals, barycentric, longest_edges, tangent_frames
+from . import nearfield
 from .nearfield import NearField
 
 TOUCH = 0.05  # a patch corner this share of the patch's longest edge from a node touches it
@@ -67,13 +68,31 @@ PAIRS_PER_BLOCK = 4096
 DirectLight = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
-def read_touching(near: NearField, mesh: Discretization, direct: DirectLight,
-                  channels: int) -> tuple[NearField, np.ndarray, int]:
-    """``near`` with the touching pairs' reading points (weights) from their polar moments,
-    the change (N + M, C) of the lighting G of the output nodes, then of the interpolation nodes,
-    for the detail of the direct light, and the number of pairs it changes;
-    ``direct(points, normals)`` gives (m, >= C) the direct light G at points (m, 3) facing unit
-    normals (m, 3). Pairs are taken PAIRS_PER_BLOCK at a time (the cells of one pair take 7 kB)."""
+@dataclass(frozen=True)
+class Touching:
+    """The geometry of the touching pairs of a NearField: ``near`` with their reading points
+    (weights), and for the probed pairs (in blocks) the polar cells' middles (k, cells, 3), shares
+    of the form factor (k, cells) and barycentric coordinates on the patch (k, cells, 3)."""
+
+    near: NearField
+    probed: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
+
+    def restricted(self, keep: np.ndarray) -> Touching:
+        """These pairs with only the near pairs ``keep`` (K,) bool (``nearfield.with_pairs``)."""
+        if keep.all():
+            return self
+        index = np.cumsum(keep) - 1  # each kept pair's index among them
+        probed = []
+        for pairs, middles, shares, where in self.probed:
+            chosen = keep[pairs]
+            probed.append((index[pairs[chosen]], middles[chosen], shares[chosen], where[chosen]))
+        return Touching(nearfield.with_pairs(self.near, keep), probed)
+
+
+def touching_pairs(near: NearField, mesh: Discretization) -> Touching:
+    """The touching pairs of ``near``, their reading points from their polar moments and the
+    polar cells of those that are probed. Pairs are taken PAIRS_PER_BLOCK at a time (the cells of
+    one pair take 7 kB)."""
     points = np.concatenate([mesh.node_points, near.points])
     normals = np.concatenate([mesh.node_normals, near.normals])
     triangles = mesh.patch_corners[near.patch]
@@ -85,20 +104,32 @@ def read_touching(near: NearField, mesh: Discretization, direct: DirectLight,
     for start in range(0, len(touching), PAIRS_PER_BLOCK):
         pairs = touching[start:start + PAIRS_PER_BLOCK]
         weights[pairs] = _reading_points(points[near.receiver[pairs]], normals[near.receiver[pairs]], triangles[pairs])
-    detail = []  # per block: (pair, cell share, cell middle, its barycentric coordinates, corner light)
-    probed = touching[:MAX_PROBED_PAIRS]
+    probed, blocks = touching[:MAX_PROBED_PAIRS], []
     for start in range(0, len(probed), PAIRS_PER_BLOCK):
         pairs = probed[start:start + PAIRS_PER_BLOCK]
         receivers, patch_corners = near.receiver[pairs], triangles[pairs]
         middles, shares = _polar_cells(points[receivers], normals[receivers], patch_corners)
         where = barycentric(middles.reshape(-1, 3), np.repeat(patch_corners, middles.shape[1], axis=0))
-        where = where.reshape(len(pairs), -1, 3)
+        blocks.append((pairs, middles, shares, where.reshape(len(pairs), -1, 3)))
+    return Touching(replace(near, weights=weights), blocks)
+
+
+def read_touching(touching: Touching, mesh: Discretization, direct: DirectLight,
+                  channels: int) -> tuple[NearField, np.ndarray, int]:
+    """``touching.near`` (the touching pairs' reading points), the change (N + M, C) of the
+    lighting G of the output nodes, then of the interpolation nodes, for the detail of the direct
+    light, and the number of pairs it changes; ``direct(points, normals)`` gives (m, >= C) the
+    direct light G at points (m, 3) facing unit normals (m, 3)."""
+    near = touching.near
+    points = np.concatenate([mesh.node_points, near.points])
+    normals = np.concatenate([mesh.node_normals, near.normals])
+    detail = []  # per block: (pair, cell share, cell middle, its barycentric coordinates, corner light)
+    for pairs, middles, shares, where in touching.probed:
         corner_light = _corner_light(near, pairs, points, normals, direct, channels)
         misread = _misread(middles, where, shares, mesh.patch_normals[near.patch[pairs]], corner_light, direct,
                            channels)
         rows, cells = np.nonzero((shares >= MIN_SHARE) & misread[:, None])
         detail.append((pairs[rows], shares[rows, cells], middles[rows, cells], where[rows, cells], corner_light[rows]))
-    near = replace(near, weights=weights)
     correction = np.zeros((len(points), channels))
     if not detail or not sum(len(part[0]) for part in detail):
         return near, correction, 0

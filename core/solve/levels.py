@@ -15,7 +15,7 @@ from ..rays.visibility import Visibility
 from ..transport.arriving import ArrivingLight
 from ..util.progress import Stages
 from . import hierarchical, iterative, montecarlo
-from .progressive import ShootingState, progressive
+from .progressive import ColumnCache, ShootingState, progressive
 
 # A level that will be refined stops at this times the tolerance (no looser than 0.1).
 COARSE_TOLERANCE = 10
@@ -168,7 +168,7 @@ class _Levels:
             self.node_direct if nodes_receive else None,
             tolerance=tolerance, ambient=settings.ambient, max_shots=max_shots,
             cache_bytes=settings.column_cache, report=report, state=self.state, first=first,
-            cache=self.kept.setdefault("columns", {}),
+            cache=self.kept.setdefault("columns", ColumnCache()),
         )
         self.extra_bytes = max(self.extra_bytes, stats["cached_columns"] * 8 * (mesh.patch_count + mesh.node_count))
         self.stats = stats
@@ -187,7 +187,8 @@ class _Levels:
             )
         self.extra_bytes = max(self.extra_bytes, matrix_bytes)
         if "matrix" not in self.kept:
-            self.kept["matrix"] = self.light.engine.patch_rows(np.arange(mesh.patch_count), lambda f: report(f, "matrix"))
+            self.kept["matrix"] = self.light.engine.patch_rows(np.arange(mesh.patch_count),
+                                                               lambda f: report(f, "matrix"))
         return self.kept["matrix"]
 
     def _iterate(self, matrix: np.ndarray, sources: np.ndarray, tolerance: float, report) -> np.ndarray:
@@ -222,6 +223,9 @@ class _Levels:
         if engine.method == "hemicube":  # the estimate keeps the unshot light's bound
             return radiosity, stages.run("gathering at vertices", (0.5, 1.0), self._gather, radiosity,
                                          timer="gather"), None
-        gathered = stages.run("final gather", (0.5, 1.0), montecarlo.gather, mesh, visibility, mesh.node_points,
-                              mesh.node_normals, future, settings.monte_carlo_rays, settings.seed, timer="monte_carlo")
+        if "gather_hits" not in self.kept:  # where the final gather's rays land: kept for a re-solve
+            self.kept["gather_hits"] = stages.run(
+                "final gather", (0.5, 1.0), montecarlo.gather_hits, mesh, visibility, mesh.node_points,
+                mesh.node_normals, settings.monte_carlo_rays, settings.seed, timer="monte_carlo")
+        gathered = montecarlo.gathered(self.kept["gather_hits"], future)
         return radiosity, state.radiosity[mesh.patch_count:] + gathered.light, gathered.standard_error

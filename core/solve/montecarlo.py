@@ -73,6 +73,11 @@ class Gathered:
         for part in parallel.map_ordered(block, starts):
             parts.append(part)
             report(len(parts) / len(starts))
+        return Gathered.joined(parts, channels)
+
+    @staticmethod
+    def joined(parts: list[Gathered], channels: int) -> Gathered:
+        """The estimates of ``parts`` one after another."""
         if not parts:
             return Gathered(np.zeros((0, channels)), np.zeros((0, channels)))
         return Gathered(np.concatenate([part.light for part in parts]),
@@ -235,13 +240,19 @@ def gather(mesh: Discretization, visibility: Visibility, points: np.ndarray, nor
     """The final gather of patch ``values`` (P, C) at ``points`` (n, 3) facing unit ``normals``
     (n, 3) with ``rays`` (a perfect square) cosine-distributed directions each, from one uniform
     point in each of the rays congruent squares of the unit square (jittered strata)."""
+    return gathered(gather_hits(mesh, visibility, points, normals, rays, seed, report), values)
+
+
+def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
+                rays: int, seed: int = 0, report: Report = quiet) -> np.ndarray:
+    """(n, rays) int32: the patch each of ``gather``'s rays hits first (-1: none), to be read
+    with any patch values (``gathered``)."""
     surfaces = Surfaces(mesh, visibility)
     side = check_gather_rays(rays)
     cells = np.stack(np.divmod(np.arange(rays), side), axis=1) / side  # (K, 2) corners of the strata
-    padded = np.concatenate([values, np.zeros((1, values.shape[1]))])  # row -1: nothing hit
     starts = range(0, len(points), POINTS_PER_BLOCK)
 
-    def block(start: int) -> Gathered:
+    def block(start: int) -> np.ndarray:
         rng = np.random.default_rng([seed, 2, start])
         chosen = slice(start, start + POINTS_PER_BLOCK)
         count = len(points[chosen])
@@ -249,6 +260,18 @@ def gather(mesh: Discretization, visibility: Visibility, points: np.ndarray, nor
         normal = np.repeat(normals[chosen], rays, axis=0)
         patch, _ = surfaces.hit(np.repeat(points[chosen], rays, axis=0),
                                 cosine_directions(normal, uv.reshape(-1, 2)), normal)
-        return Gathered.of(padded[patch].reshape(count, rays, -1))
+        return patch.astype(np.int32).reshape(count, rays)
 
-    return Gathered.on_threads(block, starts, values.shape[1], report)
+    parts = []
+    for done, part in enumerate(parallel.map_ordered(block, starts), 1):
+        parts.append(part)
+        report(done / len(starts))
+    return np.concatenate(parts) if parts else np.zeros((0, rays), np.int32)
+
+
+def gathered(hits: np.ndarray, values: np.ndarray) -> Gathered:
+    """``gather``'s estimate at points whose rays hit the patches ``hits`` (n, rays) (-1: none),
+    of patch ``values`` (P, C)."""
+    padded = np.concatenate([values, np.zeros((1, values.shape[1]))])  # row -1: nothing hit
+    return Gathered.joined([Gathered.of(padded[hits[start:start + POINTS_PER_BLOCK]])
+                            for start in range(0, len(hits), POINTS_PER_BLOCK)], values.shape[1])

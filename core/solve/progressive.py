@@ -17,6 +17,57 @@ from ..util.progress import Report, effort, quiet
 TOGETHER = 0.5
 
 
+class ColumnCache:
+    """Form-factor columns F[:, q] (n values each) with the share of each q's light that lands on
+    a patch, kept as the rows of one array, so that a group's columns come out in one gather;
+    iterated oldest first. It grows by doubling up to ``most`` rows."""
+
+    def __init__(self) -> None:
+        self.most = 1 << 62
+        self._rows: np.ndarray | None = None
+        self._slot: dict[int, int] = {}  # q: its row, in the order the columns came
+        self._capture: dict[int, float] = {}
+        self._free: list[int] = []
+        self._used = 0  # rows [0, used) have held a column
+
+    def __contains__(self, q: int) -> bool:
+        return q in self._slot
+
+    def __len__(self) -> int:
+        return len(self._slot)
+
+    def __iter__(self):
+        return iter(list(self._slot))
+
+    @property
+    def nbytes(self) -> int:
+        return 0 if self._rows is None else self._rows.nbytes
+
+    def add(self, q: int, column: np.ndarray, capture: float) -> None:
+        if self._free:
+            slot = self._free.pop()
+        else:
+            slot, self._used = self._used, self._used + 1
+            if self._rows is None or slot >= len(self._rows):
+                rows = np.empty((min(max(16, 2 * slot), max(self.most, slot + 1)), len(column)))
+                if self._rows is not None:
+                    rows[:slot] = self._rows[:slot]
+                self._rows = rows
+        self._rows[slot] = column
+        self._slot[q], self._capture[q] = slot, capture
+
+    def remove(self, q: int) -> None:
+        self._free.append(self._slot.pop(q))
+        del self._capture[q]
+
+    def columns(self, sources: np.ndarray) -> np.ndarray:
+        """(k, n) the columns of the k ``sources``, as rows."""
+        return self._rows[[self._slot[int(q)] for q in sources]]
+
+    def captures(self, sources: np.ndarray) -> np.ndarray:
+        return np.array([self._capture[int(q)] for q in sources])
+
+
 @dataclass
 class ShootingState:
     """Where progressive refinement stands: radiosity (P + N, C) of the patches then the passive
@@ -55,7 +106,7 @@ def progressive(
     report: Report = quiet,
     state: ShootingState | None = None,
     first: np.ndarray | None = None,
-    cache: dict | None = None,
+    cache: ColumnCache | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """Progressive refinement (Cohen, Chen, Wallace and Greenberg 1988): repeatedly shoot the
     patch q with the most unshot power, A_q sum_c |U_q,c| / L_c with L_c all the light of
@@ -79,8 +130,8 @@ def progressive(
     their own light goes out first, and what they reflect later waits like any other light (an
     emitter that reflects is lit again by every shot, so "until the emitters have nothing left"
     would last until the whole solve converges). That first phase is at most one shot per patch
-    of ``first``. ``cache`` (q: (F[:, q], share)) holds the columns kept, and may come filled
-    from an earlier solve with the same ``columns`` (a re-solve: ``session``).
+    of ``first``. ``cache`` holds the columns kept, and may come filled from an earlier solve
+    with the same ``columns`` (a re-solve: ``bake.BakeSession``).
 
     Stops when, in every channel, the light still unshot, with all its future bounces in a
     closed scene, sum A |U| / (1 - rho_mean), is at most ``tolerance`` of all the light,
@@ -106,8 +157,9 @@ def progressive(
     total_area = areas.sum()
     mean_reflectance = (areas @ reflectance) / total_area
     gain = 1.0 / (1.0 - mean_reflectance)  # (C,) all future bounces, closed scene
-    cache = {} if cache is None else cache  # q: F[:, q], capture
+    cache = ColumnCache() if cache is None else cache
     cache_limit = max(batch, cache_bytes // (8 * len(radiosity)))
+    cache.most = cache_limit + batch
     limit = state.shots + (max_shots if max_shots is not None else np.inf)  # converges for rho < 1
     shots_before = state.shots
 
@@ -139,22 +191,22 @@ def progressive(
             members = set(group.tolist())
             excess = len(cache) + len(wanted) - max(cache_limit, len(group))
             for q in [q for q in cache if q not in members][: max(0, excess)]:
-                del cache[q]
+                cache.remove(q)
             done, detail = effort(left, tolerance), f"{state.shots} shots, form factors of {len(wanted)} more"
             for start in range(0, len(wanted), batch):  # (P + N, batch) at a time
                 part = wanted[start:start + batch]
                 fetched, captures = columns(np.array(part), lambda _done: report(done, detail))
                 for q, factors, capture in zip(part, fetched.T, np.clip(captures, 0.0, 1.0)):
-                    cache[q] = (factors, float(capture))
+                    cache.add(q, factors, float(capture))
         shooting = unshot[group].copy()  # (k, C)
-        captures = np.array([cache[int(q)][1] for q in group])
+        captures = cache.captures(group)
         shot_power = areas[group] * np.abs(shooting).sum(axis=1)
         state.power_shot += float(shot_power.sum())
         state.power_captured += float(shot_power @ captures)
         received = np.zeros_like(radiosity)
         for start in range(0, len(group), batch):  # (P + N, batch) columns at a time, not the group's
             part = group[start:start + batch]
-            received += np.stack([cache[int(q)][0] for q in part]).T @ shooting[start:start + batch]
+            received += cache.columns(part).T @ shooting[start:start + batch]
         received *= all_reflectance
         radiosity += received
         unshot[group] = 0.0

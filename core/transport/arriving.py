@@ -57,7 +57,8 @@ class ArrivingLight:
     def combined(self, factors: np.ndarray, intensities: np.ndarray | None = None) -> np.ndarray:
         """(m, C) the light of the sources' ``factors`` (m, S, 3) at ``intensities`` (S, 3;
         default: this light's)."""
-        return self.direct.combine(factors, self.intensities if intensities is None else intensities)[:, : self.channels]
+        intensities = self.intensities if intensities is None else intensities
+        return self.direct.combine(factors, intensities)[:, : self.channels]
 
     def sharp(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """From the emitting patches' first shot and the lights, without the sky: the direct

@@ -49,12 +49,16 @@ def assert_same_colours(actual, expected, tolerance=ROUNDING):
 KNOBS = dict(patch_size=0.2, rays_per_form_factor=4, tolerance=1e-6)
 
 
-@pytest.mark.parametrize("solver", ["progressive", "jacobi"])
-def test_a_resolve_of_new_colours_equals_a_fresh_bake(solver):
+@pytest.mark.parametrize("solver, extra", [("progressive", {}), ("jacobi", {}),
+                                           ("progressive", {"monte_carlo_rays": 16, "max_shots": 20})])
+def test_a_resolve_of_new_colours_equals_a_fresh_bake(solver, extra):
+    """Also with Monte Carlo, whose particles are traced again from the new unshot light (with the
+    same seed, as a fresh bake traces them) and whose final gather's rays are kept."""
     scene = lit_by_everything()
-    session = BakeSession(solver=solver, **KNOBS)
+    knobs = KNOBS | extra
+    session = BakeSession(solver=solver, **knobs)
     first = session.bake(scene)
-    assert not first.stats["resolved"]
+    assert not first.stats["resolved"] and ("monte_carlo" in first.stats) == bool(extra)
     reflectance = scene.reflectance.copy()
     reflectance[2:4] = [0.1, 0.2, 0.7]  # the red wall turns blue
     environment = Environment(scene.environment.radiance * 3.0)  # the world's strength tripled
@@ -66,11 +70,11 @@ def test_a_resolve_of_new_colours_equals_a_fresh_bake(solver):
     again = session.bake(changed)
     assert again.stats["resolved"]
     assert "discretise" not in again.stats["seconds"] and "direct_light" not in again.stats["seconds"]
-    fresh = bake(changed, solver=solver, **KNOBS)
+    fresh = bake(changed, solver=solver, **knobs)
     assert np.abs(fresh.corner_colors - first.corner_colors).max() > 0.1 * np.abs(first.corner_colors).max()
     assert_same_colours(again, fresh, NEW_SAMPLES)
     unchanged_reflectance = recoloured(changed, reflectance=scene.reflectance)
-    assert_same_colours(session.bake(unchanged_reflectance), bake(unchanged_reflectance, solver=solver, **KNOBS))
+    assert_same_colours(session.bake(unchanged_reflectance), bake(unchanged_reflectance, solver=solver, **knobs))
     assert_same_colours(session.bake(scene), first)  # and back
 
 
