@@ -20,31 +20,27 @@ def near_field_correction(scene: Scene, light: ArrivingLight, radiosity: np.ndar
     of that reading (N, C; ``nearfield.reading_error``), or None where no pair needed it; and
     what the stage did.
 
-    ``kept``: a dict in which the near pairs and their touching pairs (geometry: found again,
-    those of the patches lit now, while no patch outside them is clearly lit),
+    ``kept``: a dict in which the near pairs with their touching pairs (``touching.Touching``:
+    geometry, found again, those of the patches lit now, while no patch outside them is clearly lit),
     the form factors from the interpolation nodes to the patches that shine (while they take at
     most ``row_budget`` bytes) and their direct light per source are kept for a re-solve on the
     same patches (``bake.BakeSession``)."""
     mesh, channels = light.mesh, light.channels
     lit = nearfield.lit_patches(mesh, radiosity)
-    if "near" not in kept:
-        kept["near"] = nearfield.near_field(scene, mesh, radiosity, light.engine.point_form_factors, lit)
-        kept["lit"] = lit
     # a re-solve keeps the pairs found before; a patch left out then that is now clearly lit
     # (above twice DARK: one about DARK, whose correction would be about that, is left to its
     # constant as DARK ones are) gets its pairs, alone where there are no interpolation nodes
     # (the large scenes, where Monte Carlo's noise lights a few more patches at every bake)
-    newly = nearfield.lit_patches(mesh, radiosity, 2 * nearfield.DARK) & ~kept["lit"]
-    if newly.any() and len(kept["near"].points) == 0:
-        added = nearfield.near_field(scene, mesh, radiosity, light.engine.point_form_factors, newly, False)
-        kept["near"], kept["lit"] = nearfield.joined(kept["near"], added), kept["lit"] | newly
-    elif newly.any():
+    newly = None if "lit" not in kept else nearfield.lit_patches(mesh, radiosity, 2 * nearfield.DARK) & ~kept["lit"]
+    if newly is not None and newly.any() and len(kept["touching"].near.points) == 0:
+        added = nearfield.near_field(scene, mesh, radiosity, light.engine.point_form_factors, newly, interpolate=False)
+        kept["touching"] = touching.joined(kept["touching"], touching.touching_pairs(added, mesh))
+        kept["lit"] = kept["lit"] | newly
+    elif newly is None or newly.any():
         kept.clear()
-        kept["near"] = nearfield.near_field(scene, mesh, radiosity, light.engine.point_form_factors, lit)
-        kept["lit"] = lit
-    if kept.get("touching", (None,))[0] is not kept["near"]:
-        kept["touching"] = (kept["near"], touching.touching_pairs(kept["near"], mesh))
-    pairs = kept["touching"][1].restricted(lit[kept["near"].patch])  # the pairs of the patches lit now
+        near = nearfield.near_field(scene, mesh, radiosity, light.engine.point_form_factors, lit)
+        kept["touching"], kept["lit"] = touching.touching_pairs(near, mesh), lit
+    pairs = kept["touching"].restricted(lit[kept["touching"].near.patch])  # the pairs of the patches lit now
     point_lighting = _point_lighting(light, pairs.near, radiosity, kept, row_budget, report)
     near, direct_detail, detailed_pairs = touching.read_touching(pairs, mesh, light.sharp, channels)
     node_lighting = node_lighting + direct_detail[: mesh.node_count]

@@ -89,6 +89,22 @@ class Touching:
         return Touching(nearfield.with_pairs(self.near, keep), probed)
 
 
+def joined(first: Touching, second: Touching) -> Touching:
+    """The touching pairs of ``nearfield.joined(first.near, second.near)``, as ``touching_pairs``
+    finds them: the MAX_PROBED_PAIRS largest form factors of the two sets are among each set's own."""
+    offset = first.near.pair_count
+    near = nearfield.joined(first.near, second.near)
+    blocks = first.probed + [(pairs + offset, *rest) for pairs, *rest in second.probed]
+    if not blocks:
+        return Touching(near, [])
+    pairs, middles, shares, where = (np.concatenate(part) for part in zip(*blocks))
+    order = np.argsort(-near.form_factor[pairs], kind="stable")[:MAX_PROBED_PAIRS]
+    probed = [(pairs[order[start:start + PAIRS_PER_BLOCK]], middles[order[start:start + PAIRS_PER_BLOCK]],
+               shares[order[start:start + PAIRS_PER_BLOCK]], where[order[start:start + PAIRS_PER_BLOCK]])
+              for start in range(0, len(order), PAIRS_PER_BLOCK)]
+    return Touching(near, probed)
+
+
 def touching_pairs(near: NearField, mesh: Discretization) -> Touching:
     """The touching pairs of ``near``, their reading points from their polar moments and the
     polar cells of those that are probed. Pairs are taken PAIRS_PER_BLOCK at a time (the cells of

@@ -22,10 +22,11 @@ import numpy as np
 import pytest
 
 from core import Scene, bake
-from core.reconstruct import touching
+from core.reconstruct import nearfield, touching
 from core.mesh.discretize import discretize
 from core.scene.lights import PointLight
-from tests.core.scenes import merge, quad
+from core.transport.formfactors import FormFactorEngine
+from tests.core.scenes import grid, merge, quad
 
 A, HALF_FLOOR, RHO = 0.5, 3.0, 0.8
 LIGHT = np.array([-1.0, -0.6, 2.0])
@@ -117,3 +118,31 @@ def test_without_the_polar_reading_the_corner_is_off(corners, monkeypatch):
     scene, ((lit, lit_corner, lit_exact), _) = corners
     monkeypatch.setattr(touching, "MIN_FORM_FACTOR", np.inf)  # no pair read anew
     assert abs(bake(scene).corner_lighting[lit, lit_corner, 0] / lit_exact - 1) > 0.5
+
+
+@pytest.mark.parametrize("probed", [touching.MAX_PROBED_PAIRS, 5])
+def test_touching_pairs_found_in_two_parts_are_those_found_at_once(probed, monkeypatch):
+    """A re-solve adds the near pairs of newly lit patches to those it kept (``touching.joined``):
+    their reading points and probed cells must be those ``touching_pairs`` finds for all the pairs
+    at once, also when only the ``probed`` largest form factors are probed."""
+    monkeypatch.setattr(touching, "MAX_PROBED_PAIRS", probed)
+    # a room's corner of 4 x 4 grids, a patch per triangle: every patch corner has an output node
+    vertices, triangles = merge(grid([0, 0, 0], [2, 0, 0], [0, 2, 0], 4), grid([0, 0, 0], [0, 0, 1], [2, 0, 0], 4),
+                                grid([0, 0, 0], [0, 2, 0], [0, 0, 1], 4))
+    scene = Scene(vertices, triangles, np.full((len(triangles), 3), 0.5), np.zeros((len(triangles), 3)))
+    mesh = discretize(scene)
+    engine = FormFactorEngine(mesh)
+    radiosity = np.ones((mesh.patch_count, 3))
+    half = np.arange(mesh.patch_count) % 2 == 0
+    a, b = (nearfield.near_field(scene, mesh, radiosity, engine.point_form_factors, lit, interpolate=False)
+            for lit in (half, ~half))
+    at_once = touching.touching_pairs(nearfield.joined(a, b), mesh)
+    in_parts = touching.joined(touching.touching_pairs(a, mesh), touching.touching_pairs(b, mesh))
+    found = sum(len(block[0]) for block in at_once.probed)
+    assert found > 5 if probed > 5 else found == 5
+    for name in ("receiver", "patch", "form_factor", "weights", "corner_receiver"):
+        np.testing.assert_array_equal(getattr(in_parts.near, name), getattr(at_once.near, name))
+    assert len(in_parts.probed) == len(at_once.probed)
+    for mine, theirs in zip(in_parts.probed, at_once.probed):
+        for part, expected in zip(mine, theirs):
+            np.testing.assert_array_equal(part, expected)
