@@ -84,7 +84,7 @@ def report(measurements: list[Measurement], header: dict, minutes: float) -> str
             rows.append([m.scene, change["name"], f"{m.first_seconds:.2f}", f"{change['seconds']:.3f}",
                          f"{100 * ratio:.1f} %" + ("" if ratio <= TARGET else " (over 10 %)"),
                          "yes" if change["resolved"] else "no", markdown.pct(change["moved"]),
-                         markdown.pct(change["nrmse"]), markdown.pct(change["estimate"]),
+                         f"{100 * change['nrmse']:.2g} %", markdown.pct(change["estimate"]),
                          f"{m.kept_bytes / MIB:.0f}", stages])
     firsts = [[m.scene, f"{m.first_seconds:.2f}", ", ".join(f"{stage} {seconds:.2f}" for stage, seconds
                                                              in m.first_stages.items() if stage != "total")]
