@@ -155,6 +155,21 @@ class RADIOSITY_OT_use_in_materials(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class RADIOSITY_OT_forget(bpy.types.Operator):
+    """Free the memory the last bake keeps so that a bake after colour changes re-solves (the next bake then
+    starts afresh)"""
+
+    bl_idname = "radiosity.forget"
+    bl_label = "Free Re-bake Memory"
+
+    def execute(self, context):
+        from . import sessions
+
+        sessions.forget(context.scene.name)
+        context.scene.radiosity.live = False
+        return {"FINISHED"}
+
+
 def _show_colours(context) -> None:
     """Solid-mode 3D views show colour attributes, so the result shows at once."""
     screen = getattr(context, "screen", None)
@@ -165,5 +180,5 @@ def _show_colours(context) -> None:
                 shading.color_type = "VERTEX"
 
 
-classes = (RADIOSITY_OT_bake, RADIOSITY_OT_clear, RADIOSITY_OT_use_in_materials)
+classes = (RADIOSITY_OT_bake, RADIOSITY_OT_clear, RADIOSITY_OT_use_in_materials, RADIOSITY_OT_forget)
 register, unregister = bpy.utils.register_classes_factory(classes)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import bpy
 
 from ..core.settings import PRESETS
+from . import sessions
 
 
 def draw_settings(layout, settings) -> None:
@@ -36,6 +37,11 @@ def draw_settings(layout, settings) -> None:
     layout.prop(settings, "live", icon="PLAY" if not settings.live else "PAUSE")
     if settings.live and settings.live_status:
         layout.label(text=settings.live_status, icon="INFO")
+    session = sessions.kept(settings.id_data.name)
+    if session is not None and session.kept_bytes:
+        row = layout.row()
+        row.label(text=f"Kept for re-bakes: {session.kept_bytes / 2**20:,.0f} MiB", icon="MEMORY")
+        row.operator("radiosity.forget", text="", icon="X")
     if settings.last_report:
         box = layout.box()
         box.label(text=settings.last_report, icon="INFO")

@@ -116,6 +116,16 @@ def test_live_follows_colours_and_pauses_on_geometry(addon, room):
     assert settings.live_status == ""
 
 
+def test_freeing_the_kept_bake_makes_the_next_bake_start_afresh(addon, room):
+    sessions = addon.radiosity_addon.sessions
+    bake_with_session(addon)
+    assert sessions.kept(bpy.context.scene.name).kept_bytes > 0
+    bpy.context.scene.radiosity.live = True
+    assert bpy.ops.radiosity.forget() == {"FINISHED"}
+    assert sessions.kept(bpy.context.scene.name) is None and not bpy.context.scene.radiosity.live
+    assert not bake_with_session(addon).stats["resolved"]
+
+
 def test_each_light_group_gets_its_light_and_together_they_make_the_whole(addon, room):
     scene = bpy.context.scene
     for name in ("Sun",):
