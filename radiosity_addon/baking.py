@@ -84,6 +84,9 @@ def prepare(scene, view_layer=None, keep: bool | None = None) -> Prepared:
     extraction = read_as_rendered(scene, view_layer, lambda depsgraph: extract(
         depsgraph, settings.two_sided, shading_normals, receivers, settings.instances == "OBJECTS"))
     knobs = settings.core_arguments(extraction.scene.extent) | {"split_direct": settings.separate_direct}
+    if settings.method == "hemicube" and (extraction.scene.opacity < 1).any():
+        extraction.notes.append("the hemicube takes see-through surfaces (alpha, Transparent BSDF) as opaque: "
+                                "ray casting lets light through them")
     if default_backend() != "embree":
         extraction.notes.append("Embree is not available here: rays are traced by the slower NumPy ray caster")
     # fail early, before any work, on targets that cannot be written

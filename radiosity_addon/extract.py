@@ -84,7 +84,8 @@ class _Builder:
         self.casts: list[np.ndarray] = []  # Object > Visibility > Ray Visibility > Shadow
         self.reflectance_maps: list[np.ndarray] = []  # (count, 3) per mesh, NaN where no SurfaceMap
         self.emission_maps: list[np.ndarray] = []
-        self._pixels: dict[str, np.ndarray | None] = {}
+        self.opacity_maps: list[np.ndarray] = []  # (count, 3) per mesh, NaN where no alpha map
+        self._pixels: dict[tuple[str, bool], np.ndarray | None] = {}
         self.instances: dict[str, int] = {}  # instancer name: mesh instances it made
         self.corner_normals: list[np.ndarray] = []
         self.surfaces: list[Surface] = []
@@ -99,11 +100,12 @@ class _Builder:
         self.vertex_count = 0
         self.triangle_count = 0
 
-    def image_pixels(self, image) -> np.ndarray | None:
-        """An image's linear pixels (``materials.image_pixels``), read once per bake."""
-        if image.name not in self._pixels:
-            self._pixels[image.name] = image_pixels(image)
-        return self._pixels[image.name]
+    def image_pixels(self, image, alpha: bool = False) -> np.ndarray | None:
+        """An image's linear pixels or alpha (``materials.image_pixels``), read once per bake."""
+        key = (image.name, alpha)
+        if key not in self._pixels:
+            self._pixels[key] = image_pixels(image, alpha)
+        return self._pixels[key]
 
     def surface(self, material) -> int:
         key = material.name if material is not None else ""
@@ -165,12 +167,21 @@ def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True,
     reflectance = np.where(np.isnan(mapped_reflectance), reflectance[material],
                            np.clip(mapped_reflectance, 0.0, MAX_REFLECTANCE))
     emission = np.where(np.isnan(mapped_emission), emission[material], np.maximum(mapped_emission, 0.0))
+    # see-through surfaces: a per-face alpha scales the opaque part's colours to the whole face's
+    mapped_opacity = np.concatenate(builder.opacity_maps)[:, 0]
+    by_map = ~np.isnan(mapped_opacity)
+    opacity = np.where(by_map, np.clip(mapped_opacity, 0.0, 1.0),
+                       np.array([s.opacity for s in builder.surfaces])[material])
+    reflectance = np.minimum(np.where(by_map[:, None], reflectance * opacity[:, None], reflectance),
+                             MAX_REFLECTANCE * opacity[:, None])
+    emission = np.where(by_map[:, None], emission * opacity[:, None], emission)
     scene = Scene(
         np.concatenate(builder.vertices), triangles, reflectance * reflects[:, None], emission * emits[:, None],
         material=material, two_sided=np.full(len(triangles), two_sided), lights=builder.lights, sky=sky,
         environment=environment,
         casts_shadows=np.concatenate(builder.casts),
         corner_normals=np.concatenate(builder.corner_normals) if shading_normals else None,
+        opacity=opacity,
     )
     groups = LightGroups(builder.light_groups, np.concatenate(builder.triangle_groups),
                          getattr(world, "lightgroup", "") if world is not None else "")
@@ -201,6 +212,8 @@ def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, instancer: str | None)
                                                 slots, loops, areas, faces))
         builder.emission_maps.append(_mapped(builder, mesh, obj.original.name, [s.emission_map for s in surfaces],
                                              slots, loops, areas, faces))
+        builder.opacity_maps.append(_mapped(builder, mesh, obj.original.name, [s.opacity_map for s in surfaces],
+                                            slots, loops, areas, faces))
     finally:
         obj.to_mesh_clear()
     if np.linalg.det(matrix[:3, :3]) < 0:  # a mirroring transform turns the faces inside out
@@ -253,7 +266,7 @@ def _triangle_colours(builder: _Builder, mesh, object_name: str, surface_map, lo
     if surface_map.image is not None:
         layer = (mesh.uv_layers.get(surface_map.uv_map) if surface_map.uv_map else
                  next((uv for uv in mesh.uv_layers if uv.active_render), mesh.uv_layers.active))
-        pixels = builder.image_pixels(surface_map.image)
+        pixels = builder.image_pixels(surface_map.image, surface_map.alpha)
         if layer is None or pixels is None:
             missing = (f"pixels in image '{surface_map.image.name}'" if layer is not None else
                        f"UV map '{surface_map.uv_map}'" if surface_map.uv_map else "UV map")

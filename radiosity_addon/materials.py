@@ -1,9 +1,12 @@
-"""Blender materials -> diffuse reflectance and emission (linear RGB), with a note for every
-approximation. Understood: Principled BSDF (base colour, emission colour x strength), Diffuse
-BSDF, Emission, Mix and Add Shader of those. An Image Texture or a Color Attribute feeding a base
-or emission colour straight (not through a mix) is a ``SurfaceMap``, read per face by ``extract``;
-elsewhere an image counts as its mean colour. Anything else falls back to the material's viewport
-colour, with a warning."""
+"""Blender materials -> diffuse reflectance, emission (linear RGB) and opacity, with a note for
+every approximation. Understood: Principled BSDF (base colour, emission colour x strength, alpha),
+Diffuse BSDF, Emission, Transparent BSDF, Mix and Add Shader of those. An Image Texture or a Color
+Attribute feeding a base or emission colour straight (not through a mix) is a ``SurfaceMap``, read
+per face by ``extract``; elsewhere an image counts as its mean colour. A see-through surface's
+reflectance and emission are its whole surface's (``core.Scene.opacity``): a Principled alpha or a
+Mix with a Transparent BSDF scales them by the share of light it stops; an Image Texture's Alpha
+feeding a Principled alpha through a UV map is its ``opacity_map``, read per face. Anything else
+falls back to the material's viewport colour, with a warning."""
 
 from __future__ import annotations
 
@@ -23,12 +26,14 @@ DEFAULT_SPECULAR_LEVEL = 0.5
 
 class SurfaceMap(NamedTuple):
     """A colour that varies over a surface: ``image`` (a bpy Image) through UV map ``uv_map``, or
-    colour attribute ``attribute``; "" names the mesh's active render one. Times ``scale``."""
+    colour attribute ``attribute``; "" names the mesh's active render one. Times ``scale``. With
+    ``alpha``, the image's alpha in every channel."""
 
     image: object | None
     attribute: str | None
     uv_map: str
     scale: float = 1.0
+    alpha: bool = False
 
 
 class Surface(NamedTuple):
@@ -37,6 +42,8 @@ class Surface(NamedTuple):
     notes: tuple[str, ...]
     reflectance_map: SurfaceMap | None = None
     emission_map: SurfaceMap | None = None
+    opacity: float = 1.0  # the share of the light it stops (reflectance and emission are of all of it)
+    opacity_map: SurfaceMap | None = None  # per face; reflectance and emission then are the opaque part's
 
 
 def default_surface() -> Surface:
@@ -64,10 +71,13 @@ def material_surface(material) -> Surface:
 
 
 def _clamped(surface: Surface, name: str) -> Surface:
-    if (surface.reflectance <= MAX_REFLECTANCE).all():
+    cap = MAX_REFLECTANCE * surface.opacity
+    if (surface.reflectance <= cap).all():
         return surface
-    note = f"material '{name}': reflectance {surface.reflectance.max():.4g} capped at {MAX_REFLECTANCE}"
-    return surface._replace(reflectance=np.minimum(surface.reflectance, MAX_REFLECTANCE), notes=surface.notes + (note,))
+    note = f"material '{name}': reflectance {surface.reflectance.max():.4g} capped at {cap:.4g}"
+    if surface.opacity < 1:
+        note += f" (a surface of opacity {surface.opacity:.3g} reflects at most that share)"
+    return surface._replace(reflectance=np.minimum(surface.reflectance, cap), notes=surface.notes + (note,))
 
 
 def _shader(node, name: str, notes: list[str]) -> Surface | None:
@@ -80,14 +90,15 @@ def _shader(node, name: str, notes: list[str]) -> Surface | None:
                            name, notes)
         strength = _value(node.inputs["Emission Strength"], name, notes) if "Emission Strength" in node.inputs else 1.0
         emission_socket = node.inputs["Emission Color" if "Emission Color" in node.inputs else "Emission"]
-        return Surface(_colour(node.inputs["Base Color"], name, notes), emission * strength, (),
-                       surface_map(node.inputs["Base Color"]), surface_map(emission_socket, strength))
+        surface = Surface(_colour(node.inputs["Base Color"], name, notes), emission * strength, (),
+                          surface_map(node.inputs["Base Color"]), surface_map(emission_socket, strength))
+        return _with_alpha(surface, node.inputs.get("Alpha"), name, notes)
     if kind == "ShaderNodeBsdfDiffuse":
         return Surface(_colour(node.inputs["Color"], name, notes), np.zeros(3), (), surface_map(node.inputs["Color"]))
     if kind == "ShaderNodeBsdfTransparent":
-        notes.append(f"material '{name}': Transparent BSDF baked as an opaque black surface (light passing "
-                     "through is not modelled yet)")
-        return _black()
+        if (_rgb(node.inputs["Color"].default_value) < 1 - SIGNIFICANT_SHARE).any() or node.inputs["Color"].is_linked:
+            notes.append(f"material '{name}': a Transparent BSDF's colour is taken as white (light passes unfiltered)")
+        return Surface(np.zeros(3), np.zeros(3), (), opacity=0.0)
     if kind == "ShaderNodeEmission":
         strength = _value(node.inputs["Strength"], name, notes)
         return Surface(np.zeros(3), _colour(node.inputs["Color"], name, notes) * strength, (),
@@ -99,14 +110,38 @@ def _shader(node, name: str, notes: list[str]) -> Surface | None:
             return None
         if any(part.reflectance_map or part.emission_map for part in parts):
             notes.append(f"material '{name}': a textured colour inside a {node.name} is taken as its mean")
+        if any(part.opacity_map for part in parts):
+            notes.append(f"material '{name}': a textured alpha inside a {node.name} is taken as its mean")
         if kind == "ShaderNodeAddShader":
             weights = (1.0, 1.0)
+            # what one part lets through the other may stop: light passes where neither stops it
+            opacity = 1.0 - float(np.prod([1.0 - part.opacity for part in parts]))
         else:
             fac = _value(node.inputs["Fac"], name, notes)
             weights = (1.0 - fac, fac)
+            opacity = sum(w * p.opacity for w, p in zip(weights, parts))
         return Surface(sum(w * p.reflectance for w, p in zip(weights, parts)),
-                       sum(w * p.emission for w, p in zip(weights, parts)), ())
+                       sum(w * p.emission for w, p in zip(weights, parts)), (), opacity=opacity)
     return None
+
+
+def _with_alpha(surface: Surface, alpha, name: str, notes: list[str]) -> Surface:
+    """A Principled BSDF's ``surface`` with its Alpha (a socket, or None): a mix of a Transparent
+    BSDF and the surface by alpha. An Image Texture's Alpha through a UV map becomes the
+    ``opacity_map``; other links, their unlinked value."""
+    if alpha is None:
+        return surface
+    link = _link_into(alpha)
+    if link is not None:
+        found = surface_map(alpha)
+        if found is not None and found.image is not None and link.from_socket.name == "Alpha":
+            return surface._replace(opacity_map=found._replace(alpha=True))
+        notes.append(f"material '{name}': Alpha is driven by nodes; its unlinked value used")
+    value = float(alpha.default_value)
+    scaled = [None if part is None else part._replace(scale=part.scale * value)
+              for part in (surface.reflectance_map, surface.emission_map)]
+    return surface._replace(reflectance=surface.reflectance * value, emission=surface.emission * value,
+                            reflectance_map=scaled[0], emission_map=scaled[1], opacity=value)
 
 
 def _black() -> Surface:
@@ -118,11 +153,6 @@ def _note_non_diffuse(node, name: str, notes: list[str]) -> None:
     checks = [("Metallic", "metallic", 0.0), ("Transmission Weight", "transmission", 0.0),
               ("Transmission", "transmission", 0.0), ("Coat Weight", "coat", 0.0),
               ("Specular IOR Level", "specular", DEFAULT_SPECULAR_LEVEL), ("Specular", "specular", 0.5)]
-    alpha = node.inputs.get("Alpha")
-    if alpha is not None and (alpha.is_linked or alpha.default_value < 1.0 - SIGNIFICANT_SHARE):
-        amount = "textured" if alpha.is_linked else f"{alpha.default_value:.2f}"
-        notes.append(f"material '{name}': alpha {amount} baked as opaque (light passing through is not "
-                     "modelled yet)")
     for socket_name, label, baseline in checks:
         socket = node.inputs.get(socket_name)
         if socket is None:
@@ -177,9 +207,10 @@ def _value(socket, name: str, notes: list[str]) -> float:
     return float(socket.default_value)
 
 
-def image_pixels(image) -> np.ndarray | None:
+def image_pixels(image, alpha: bool = False) -> np.ndarray | None:
     """(H, W, 3) linear colour of a Blender image (row 0 at the bottom, as Blender stores it), None
-    when it has no pixels (a missing file). Byte images in an sRGB colour space are decoded."""
+    when it has no pixels (a missing file). Byte images in an sRGB colour space are decoded. With
+    ``alpha``, its alpha in every channel (1 where it has none)."""
     channels = image.channels
     width, height = image.size
     count = width * height * channels
@@ -187,7 +218,11 @@ def image_pixels(image) -> np.ndarray | None:
         return None
     pixels = np.empty(count, dtype=np.float32)
     image.pixels.foreach_get(pixels)
-    rgb = pixels.reshape(height, width, channels)[..., :3].astype(np.float64)
+    pixels = pixels.reshape(height, width, channels)
+    if alpha:
+        opacity = pixels[..., 3:4] if channels > 3 else np.ones((height, width, 1), np.float32)
+        return np.repeat(opacity.astype(np.float64), 3, axis=2)
+    rgb = pixels[..., :3].astype(np.float64)
     if not image.is_float and image.colorspace_settings.name == "sRGB":
         rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
     return rgb

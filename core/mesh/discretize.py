@@ -67,6 +67,8 @@ class Discretization:
     panel_node : (Q, 3) int, the node at each panel corner (``corner_node`` when the panels are
         the input triangles; a panel's corners are input vertices).
     patch_casts : (P,) bool, which patches cast shadows (``Scene.casts_shadows``), or None: all.
+    patch_opacity : (P,) float, the share of the light each patch stops (``Scene.opacity``; 1 for
+        those that cast no shadow), or None: all of it.
     """
 
     patch_corners: np.ndarray
@@ -87,6 +89,7 @@ class Discretization:
     panel_corners: np.ndarray
     panel_node: np.ndarray
     patch_casts: np.ndarray | None = None
+    patch_opacity: np.ndarray | None = None
 
     @property
     def patch_count(self) -> int:
@@ -96,6 +99,11 @@ class Discretization:
     def front_casts(self) -> np.ndarray | None:
         """(F,) which front patches cast shadows, or None: all (the ray layer's occluders)."""
         return None if self.patch_casts is None else self.patch_casts[: self.front_patch_count]
+
+    @property
+    def front_opacity(self) -> np.ndarray | None:
+        """(F,) the share of the light each front patch stops, or None: all (the ray layer's)."""
+        return None if self.patch_opacity is None else self.patch_opacity[: self.front_patch_count]
 
     @property
     def node_count(self) -> int:
@@ -181,6 +189,7 @@ def _patches(scene: Scene, patch_size: float | None, cut_contacts: bool, hidden_
         patch_piece = np.concatenate([patch_piece, patch_piece[back]])
     patch_corners = np.concatenate(sides)
     patch_areas, patch_normals = areas_and_normals(patch_corners)
+    stops = np.where(scene.casts_shadows, scene.opacity, 1.0)  # a triangle that casts no shadow lets rays by anyway
     return dict(
         patch_corners=patch_corners,
         patch_areas=patch_areas,
@@ -189,6 +198,7 @@ def _patches(scene: Scene, patch_size: float | None, cut_contacts: bool, hidden_
         patch_reflectance=scene.reflectance[patch_triangle],
         patch_emission=scene.emission[patch_triangle],
         patch_casts=None if scene.casts_shadows.all() else scene.casts_shadows[patch_triangle],
+        patch_opacity=None if (stops == 1).all() else stops[patch_triangle],
         patch_triangle=patch_triangle,
         patch_piece=patch_piece,
         front_patch_count=len(back_of_front),

@@ -136,18 +136,20 @@ def panels(scene: Scene, panel_size: float,
                         scene.emission[panel_source], material=scene.material[panel_source],
                         two_sided=scene.two_sided[panel_source], lights=scene.lights, sky=scene.sky,
                         environment=scene.environment,
-                        casts_shadows=scene.casts_shadows[panel_source])
+                        casts_shadows=scene.casts_shadows[panel_source], opacity=scene.opacity[panel_source])
     return Panels(panel_scene, panel_source, input_corner[panel_vertices], corner_panel, corner_weights,
                   triangle_panel)
 
 
 def _regions(scene: Scene, normals, weld, zero_area) -> np.ndarray:
-    """(T,) region label: triangles of one surface (reflectance, emission, material, sidedness)
+    """(T,) region label: triangles of one surface (reflectance, emission, material, sidedness,
+    shadows, opacity)
     joined across shared edges where they are parallel within PARALLEL; a degenerate
     triangle is a region of its own."""
     count = len(normals)
     surface = np.concatenate([scene.reflectance, scene.emission, scene.material[:, None],
-                              scene.two_sided[:, None], scene.casts_shadows[:, None]], axis=1)
+                              scene.two_sided[:, None], scene.casts_shadows[:, None], scene.opacity[:, None]],
+                             axis=1)
     surface_id = np.unique(surface, axis=0, return_inverse=True)[1].ravel()
     surface_id[zero_area] = surface_id.max() + 1 + np.arange(zero_area.sum())
     triangle = np.tile(np.arange(count), 3)

@@ -137,6 +137,7 @@ def split(mesh: Discretization, chosen: np.ndarray) -> tuple[Discretization, np.
         patch_triangle=mesh.patch_triangle[origin],
         patch_piece=mesh.patch_piece[origin],
         patch_casts=None if mesh.patch_casts is None else mesh.patch_casts[origin],
+        patch_opacity=None if mesh.patch_opacity is None else mesh.patch_opacity[origin],
         front_patch_count=len(front_parent),
         back_of_front=back_of_front,
     )

@@ -21,6 +21,9 @@ from .numpy_tracer import NumpyTracer
 # resolves about 6e-8 there).
 RAY_EPSILON = 1e-5
 BACKENDS = ("embree", "numpy")
+# See-through triangles a ray is followed through (``Visibility.blocked_unit``): beyond, the
+# light left is taken to go on unstopped.
+MAX_LAYERS = 8
 
 
 def _import_embree():
@@ -58,11 +61,15 @@ class Visibility:
         (``geometry.enclosing``, to ENCLOSING_TOLERANCE), as a room's walls:
         ``occluded_between_unit`` leaves them out.
     casting : (P,) bool, the triangles that block light (``Scene.casts_shadows``; None: all):
-        the ``occluded`` queries see only those, ``first_hit_unit`` and ``nearest`` every one.
+        the ``occluded`` and ``blocked`` queries see only those, ``first_hit_unit`` and
+        ``nearest`` every one.
+    opacity : (P,) float in [0, 1], the share of the light each triangle stops (``Scene.opacity``;
+        None: all): the ``occluded`` queries see the opaque ones, ``blocked`` all that cast.
     """
 
     def __init__(self, corners: np.ndarray, backend: str | None = None, two_sided: np.ndarray | None = None,
-                 owners: np.ndarray | None = None, casting: np.ndarray | None = None) -> None:
+                 owners: np.ndarray | None = None, casting: np.ndarray | None = None,
+                 opacity: np.ndarray | None = None) -> None:
         if backend is None:
             backend = default_backend()
         if backend not in BACKENDS:
@@ -92,9 +99,13 @@ class Visibility:
         self.unit_plane_offsets = (self.triangle_normals * unit_corners[:, 0].astype(np.float64)).sum(axis=1)
         self.enclosing = enclosing(np.asarray(corners, dtype=np.float64), ENCLOSING_TOLERANCE / self.scale)
         casting = np.ones(len(unit_corners), dtype=bool) if casting is None else np.asarray(casting, bool)
+        self.opacity = np.ones(len(unit_corners)) if opacity is None else np.asarray(opacity, np.float64)
+        opaque = casting & (self.opacity >= 1)
+        self._partial = np.flatnonzero(casting & (self.opacity > 0) & (self.opacity < 1))  # light goes through
         self._scene = _traced(backend, unit_corners)
-        self._occluders = self._subset(unit_corners, casting)
-        self._inner = self._subset(unit_corners, casting & ~self.enclosing)
+        self._occluders = self._subset(unit_corners, opaque)
+        self._inner = self._subset(unit_corners, opaque & ~self.enclosing)
+        self._see_through = self._subset(unit_corners, np.isin(np.arange(len(unit_corners)), self._partial))
         self.rays_cast = 0
         self._count_lock = threading.Lock()
 
@@ -126,6 +137,51 @@ class Visibility:
         can block them, so none is traced (the same answers, fewer triangles: in a room, its
         walls)."""
         return self._occluded(starts, directions, reach, self._inner)
+
+    @property
+    def see_through(self) -> bool:
+        """Whether some casting triangles let part of the light through (``opacity``)."""
+        return len(self._partial) > 0
+
+    def blocked_unit(self, starts: np.ndarray, directions: np.ndarray, reach: np.ndarray,
+                     between: bool = False) -> np.ndarray:
+        """(n,) the share of the light along each ray (as ``occluded_unit``; ``between``: as
+        ``occluded_between_unit``) that the casting triangles stop: bool where every one is
+        opaque, else float, 1 - prod (1 - opacity) over the triangles crossed (the first
+        MAX_LAYERS of those that let light through)."""
+        blocked = self._occluded(starts, directions, reach, self._inner if between else self._occluders)
+        if not self.see_through:
+            return blocked
+        share = blocked.astype(np.float64)
+        open_rays = np.flatnonzero(~blocked & (np.asarray(reach) > 0))
+        share[open_rays] = 1.0 - self._transmitted(starts[open_rays], directions[open_rays],
+                                                   np.asarray(reach, np.float64)[open_rays])
+        return share
+
+    def _transmitted(self, starts, directions, reach) -> np.ndarray:
+        """(n,) prod (1 - opacity) over the see-through triangles on each ray, layer by layer:
+        the nearest one's plane gives where the ray goes on from."""
+        starts = np.asarray(starts, np.float64).copy()
+        directions = np.asarray(directions, np.float64)
+        reach = np.asarray(reach, np.float64).copy()
+        transmitted = np.ones(len(starts))
+        going = np.arange(len(starts))
+        for _ in range(MAX_LAYERS):
+            if len(going) == 0:
+                break
+            hit = self._run(starts[going], directions[going], reach[going], "INTERSECT", self._see_through)
+            going, hit = going[hit >= 0], hit[hit >= 0]
+            triangle = self._partial[hit]
+            transmitted[going] *= 1.0 - self.opacity[triangle]
+            normals = self.triangle_normals[triangle]
+            slope = (directions[going] * normals).sum(axis=1)
+            slope = np.where(np.abs(slope) > 1e-12, slope, 1e-12)
+            along = (self.unit_plane_offsets[triangle] - (starts[going] * normals).sum(axis=1)) / slope
+            along = np.maximum(along, 0.0) + RAY_EPSILON / np.linalg.norm(directions[going], axis=1)
+            starts[going] += along[:, None] * directions[going]
+            reach[going] -= along
+            going = going[reach[going] > 0]
+        return transmitted
 
     def _occluded(self, starts, directions, reach, scene) -> np.ndarray:
         if scene is None:

@@ -23,7 +23,7 @@ def geometry_change(first: Scene, now: Scene) -> str | None:
     strength; None if nothing. A triangle that starts to emit, a sky that was black and an
     environment image that is not a multiple of the first count as changes (their light was
     never traced)."""
-    for name in ("vertices", "triangles", "two_sided", "casts_shadows"):
+    for name in ("vertices", "triangles", "two_sided", "casts_shadows", "opacity"):
         if not _same(getattr(first, name), getattr(now, name)):
             return f"the scene's {name.replace('_', ' ')} changed"
     if (first.corner_normals is None) != (now.corner_normals is None) or (

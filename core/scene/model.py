@@ -66,6 +66,11 @@ class Scene:
         (light passes it on its way to anything behind) but still receives, reflects and emits,
         as Cycles' Shadow ray visibility off (with the hemicube it still hides what is behind it).
         Default: every triangle casts.
+    opacity : (T,) float in [0, 1], optional; the share of the light arriving at a triangle that it
+        stops (Blender: a Principled BSDF's Alpha, a Transparent BSDF mixed in); the rest passes
+        straight through it to what lies behind (1: opaque, the default). ``reflectance`` and
+        ``emission`` are the triangle's as a whole: a leaf card of opacity 0.5 reflects half what
+        its opaque part would (Cycles' Mix of Transparent and the surface by alpha).
     corner_normals : (T, 3, 3) float, optional; the shading normal at each corner (Blender's
         corner normals: a flat face's own normal, a smooth face's vertex normal, split at sharp
         edges). Given, corners share a receiver node only where their normals agree, and the node
@@ -90,6 +95,7 @@ class Scene:
     casts_shadows: np.ndarray | None = field(default=None)
     environment: Environment | None = None
     sky: np.ndarray | None = None
+    opacity: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         vertices = _as_float_array("vertices", self.vertices, (3,))
@@ -142,6 +148,13 @@ class Scene:
         casts_shadows = np.ones(count, bool) if self.casts_shadows is None else np.array(self.casts_shadows)
         if casts_shadows.dtype != bool or casts_shadows.shape != (count,):
             raise ValueError(f"casts_shadows must be a bool array of shape ({count},)")
+        opacity = np.ones(count) if self.opacity is None else _as_float_array("opacity", self.opacity, ())
+        if opacity.shape != (count,) or not ((opacity >= 0) & (opacity <= 1)).all():
+            raise ValueError(f"opacity must be {count} numbers in [0, 1]")
+        if (reflectance > opacity[:, None]).any():
+            bad = _first_bad(reflectance > opacity[:, None])
+            raise ValueError(f"reflectance[{bad}] = {reflectance[bad].tolist()} is above its opacity {opacity[bad]:g}: "
+                             "a surface reflects at most the light it stops (scale it by the opacity)")
         corner_normals = None if self.corner_normals is None else _unit_corner_normals(self.corner_normals, count)
         sky = np.zeros(3) if self.sky is None else np.array(self.sky, dtype=np.float64).reshape(-1)
         if sky.shape != (3,) or not np.isfinite(sky).all() or (sky < 0).any():
@@ -158,6 +171,7 @@ class Scene:
             ("material", np.array(material, dtype=np.int64)),
             ("two_sided", two_sided),
             ("casts_shadows", casts_shadows),
+            ("opacity", opacity),
             *([("corner_normals", corner_normals)] if corner_normals is not None else []),
         ):
             value.setflags(write=False)

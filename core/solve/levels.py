@@ -214,7 +214,8 @@ class _Levels:
         visibility = engine.visibility
         if len(visibility.triangle_normals) != mesh.front_patch_count:  # refined: the rays' triangles must be the patches
             visibility = Visibility(mesh.patch_corners[: mesh.front_patch_count], two_sided=mesh.back_of_front >= 0,
-                                    owners=mesh.patch_triangle[: mesh.front_patch_count], casting=mesh.front_casts)
+                                    owners=mesh.patch_triangle[: mesh.front_patch_count], casting=mesh.front_casts,
+                                    opacity=mesh.front_opacity)
         particles = int(mesh.patch_count * settings.monte_carlo_rays * montecarlo.PARTICLES_PER_RAY)
         future = stages.run("tracing particles", (0.0, 0.5), montecarlo.trace, mesh, visibility, state.unshot,
                             mesh.patch_reflectance[:, : self.channels], particles, settings.seed, timer="monte_carlo")
@@ -227,5 +228,5 @@ class _Levels:
             self.kept["gather_hits"] = stages.run(
                 "final gather", (0.5, 1.0), montecarlo.gather_hits, mesh, visibility, mesh.node_points,
                 mesh.node_normals, settings.monte_carlo_rays, settings.seed, timer="monte_carlo")
-        gathered = montecarlo.gathered(self.kept["gather_hits"], future)
+        gathered = montecarlo.gathered(self.kept["gather_hits"], future, mesh.patch_opacity)
         return radiosity, state.radiosity[mesh.patch_count:] + gathered.light, gathered.standard_error

@@ -33,7 +33,7 @@ from typing import Callable
 import numpy as np
 
 from ..mesh.discretize import Discretization
-from ..rays.visibility import Visibility
+from ..rays.visibility import MAX_LAYERS, Visibility
 from ..util import parallel, rows
 from ..util.geometry import barycentric, cosine_directions, uniform_points
 from ..util.progress import Report, quiet
@@ -108,11 +108,33 @@ class Surfaces:
         self._partners = second[order]
         self._partner_start = np.searchsorted(first[order], np.arange(front + 1))
 
-    def hit(self, origins: np.ndarray, directions: np.ndarray, lift: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def hit(self, origins: np.ndarray, directions: np.ndarray, lift: np.ndarray,
+            rng: np.random.Generator | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The patch each ray meets first (-1: none, or the back of a one-sided surface) and the
         point (n, 3) where it meets its plane. Of coincident faces (a card made of two one-sided
-        faces back to back) the ray lands on one that faces it, whichever the tracer returned."""
+        faces back to back) the ray lands on one that faces it, whichever the tracer returned.
+        With ``rng``, a ray goes on through a see-through surface (either side) with the chance
+        1 - its opacity, up to MAX_LAYERS times: it so stops at patch j with the chance opacity_j
+        of all that reaches it, and what it reads or brings there counts 1 / opacity_j
+        (``gathered``, ``trace``)."""
         front = self.visibility.nearest(origins, directions, lift)
+        patch, points = self._landing(origins, directions, front)
+        if rng is None or not self.visibility.see_through:
+            return patch, points
+        deciding = np.flatnonzero(front >= 0)  # rays at a surface, to stop there or go on
+        for _ in range(MAX_LAYERS):
+            crossing = deciding[rng.random(len(deciding)) >= self.visibility.opacity[front[deciding]]]
+            if len(crossing) == 0:
+                break
+            going = directions[crossing]
+            front[crossing] = self.visibility.nearest(points[crossing], going, going)
+            patch[crossing], points[crossing] = self._landing(points[crossing], going, front[crossing])
+            deciding = crossing[front[crossing] >= 0]
+        return patch, points
+
+    def _landing(self, origins: np.ndarray, directions: np.ndarray,
+                 front: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``hit``'s patches and points for the front triangles ``front`` the rays met."""
         hit = front >= 0
         index = np.maximum(front, 0)
         facing = (directions * self._normals[index]).sum(axis=1)
@@ -162,7 +184,11 @@ def trace(mesh: Discretization, visibility: Visibility, unshot: np.ndarray, refl
     power = np.zeros_like(unshot)
     np.divide(mesh.patch_areas[:, None] * unshot * total, weights[:, None] * particles, out=power,
               where=weights[:, None] > 0)
-    survival = reflectance.max(axis=1)
+    # a particle stops at patch j with the chance opacity_j (``Surfaces.hit``): there it
+    # brings 1 / opacity_j of its power and is reflected with reflectance / opacity_j
+    stops = np.ones(mesh.patch_count) if mesh.patch_opacity is None else np.maximum(mesh.patch_opacity, 1e-12)
+    reflecting = reflectance / stops[:, None]
+    survival = reflecting.max(axis=1)
     starts = range(0, len(sources), PARTICLES_PER_BLOCK)
 
     def block(start: int) -> np.ndarray:
@@ -174,15 +200,17 @@ def trace(mesh: Discretization, visibility: Visibility, unshot: np.ndarray, refl
         point = uniform_points(mesh.patch_corners[patch], rng.random((len(patch), 2)))
         arrived = np.zeros((mesh.patch_count, channels + 1))
         while len(patch):
-            patch, point = surfaces.hit(point, cosine_directions(normal, rng.random((len(patch), 2))), normal)
+            directions = cosine_directions(normal, rng.random((len(patch), 2)))
+            patch, point = surfaces.hit(point, directions, normal, rng)
             landed = patch >= 0
             patch, point, weight = patch[landed], point[landed], weight[landed]
+            brought = weight / stops[patch, None]
             for channel in range(channels):
-                arrived[:, channel] += np.bincount(patch, weight[:, channel], minlength=mesh.patch_count)
+                arrived[:, channel] += np.bincount(patch, brought[:, channel], minlength=mesh.patch_count)
             arrived[:, channels] += np.bincount(patch, minlength=mesh.patch_count)
             survives = rng.random(len(patch)) < survival[patch]
             patch, point, weight = patch[survives], point[survives], weight[survives]
-            weight = weight * reflectance[patch] / survival[patch, None]
+            weight = weight * reflecting[patch] / survival[patch, None]
             normal = mesh.patch_normals[patch]
         return arrived
 
@@ -240,13 +268,14 @@ def gather(mesh: Discretization, visibility: Visibility, points: np.ndarray, nor
     """The final gather of patch ``values`` (P, C) at ``points`` (n, 3) facing unit ``normals``
     (n, 3) with ``rays`` (a perfect square) cosine-distributed directions each, from one uniform
     point in each of the rays congruent squares of the unit square (jittered strata)."""
-    return gathered(gather_hits(mesh, visibility, points, normals, rays, seed, report), values)
+    return gathered(gather_hits(mesh, visibility, points, normals, rays, seed, report), values, mesh.patch_opacity)
 
 
 def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
                 rays: int, seed: int = 0, report: Report = quiet) -> np.ndarray:
-    """(n, rays) int32: the patch each of ``gather``'s rays hits first (-1: none), to be read
-    with any patch values (``gathered``)."""
+    """(n, rays) int32: the patch each of ``gather``'s rays stops at (-1: none; through
+    see-through surfaces by chance, ``Surfaces.hit``), to be read with any patch values
+    (``gathered``)."""
     surfaces = Surfaces(mesh, visibility)
     side = check_gather_rays(rays)
     cells = np.stack(np.divmod(np.arange(rays), side), axis=1) / side  # (K, 2) corners of the strata
@@ -258,8 +287,8 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
         count = len(points[chosen])
         uv = cells[None] + rng.random((count, rays, 2)) / side  # one uniform point in each stratum
         normal = np.repeat(normals[chosen], rays, axis=0)
-        patch, _ = surfaces.hit(np.repeat(points[chosen], rays, axis=0),
-                                cosine_directions(normal, uv.reshape(-1, 2)), normal)
+        directions = cosine_directions(normal, uv.reshape(-1, 2))
+        patch, _ = surfaces.hit(np.repeat(points[chosen], rays, axis=0), directions, normal, rng)
         return patch.astype(np.int32).reshape(count, rays)
 
     parts = []
@@ -269,9 +298,11 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
     return np.concatenate(parts) if parts else np.zeros((0, rays), np.int32)
 
 
-def gathered(hits: np.ndarray, values: np.ndarray) -> Gathered:
-    """``gather``'s estimate at points whose rays hit the patches ``hits`` (n, rays) (-1: none),
-    of patch ``values`` (P, C)."""
+def gathered(hits: np.ndarray, values: np.ndarray, opacity: np.ndarray | None = None) -> Gathered:
+    """``gather``'s estimate at points whose rays stopped at the patches ``hits`` (n, rays) (-1:
+    none), of patch ``values`` (P, C), each over the patch's ``opacity`` (P,) (None: all 1)."""
+    if opacity is not None:
+        values = np.divide(values, opacity[:, None], out=np.zeros_like(values), where=opacity[:, None] > 0)
     padded = np.concatenate([values, np.zeros((1, values.shape[1]))])  # row -1: nothing hit
     return Gathered.joined([Gathered.of(padded[hits[start:start + POINTS_PER_BLOCK]])
                             for start in range(0, len(hits), POINTS_PER_BLOCK)], values.shape[1])

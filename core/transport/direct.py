@@ -168,7 +168,7 @@ class DirectLighting:
                     seen = self._seen_in_cone(points[lit], normals[lit], -light.direction, light.angle / 2, samples)
                 else:
                     towards = np.broadcast_to(-light.direction, (len(lit), 3))
-                    seen = ~self._blocked(points[lit], normals[lit], towards, None)
+                    seen = _seen(self._blocked(points[lit], normals[lit], towards, None))
                 result[lit, index] = (cosine[lit] * seen / math.pi)[:, None]
             elif isinstance(light, (PointLight, SpotLight)):
                 offset = light.position - points
@@ -182,7 +182,7 @@ class DirectLighting:
                     samples = self._light_samples(lit, first, index, paired)
                     seen = self._seen_on_disc(points[lit], normals[lit], light.position, light.radius, samples)
                 else:
-                    seen = ~self._blocked(points[lit], normals[lit], offset[lit], np.ones(len(lit)))
+                    seen = _seen(self._blocked(points[lit], normals[lit], offset[lit], np.ones(len(lit))))
                 result[lit, index] = (strength[lit] * seen / (4 * math.pi**2))[:, None]
         return result
 
@@ -225,7 +225,7 @@ class DirectLighting:
             directions, open_sky = self._open_sky(points, normals, first)
             column = len(self.lights)
             if self.sky.any():
-                result[:, column] = (1.0 - (~open_sky).mean(axis=1))[:, None]
+                result[:, column] = (1.0 - (1 - open_sky).mean(axis=1))[:, None]
                 column += 1
             if self.environment is not None:
                 result[:, column] = (open_sky[..., None] * self.environment.at(directions)).mean(axis=1)
@@ -260,16 +260,20 @@ class DirectLighting:
         return directions, self._unblocked(points, normals, directions, None)
 
     def _unblocked(self, points, normals, offsets, reach) -> np.ndarray:
-        """(m, s) which of the s rays from each point (m, 3) along ``offsets`` (m, s, 3) no
-        surface blocks (``_blocked``; ``reach`` 1.0 up to the offsets' ends, None to infinity)."""
+        """(m, s) what gets through along each of the s rays from each point (m, 3) along
+        ``offsets`` (m, s, 3): whether no surface blocks it, or the share of its light no surface
+        stops where some let light through (``_blocked``; ``reach`` 1.0 up to the offsets' ends,
+        None to infinity)."""
         count = offsets.shape[1]
         blocked = self._blocked(np.repeat(points, count, axis=0), np.repeat(normals, count, axis=0),
                                 offsets.reshape(-1, 3), None if reach is None else np.full(len(points) * count, reach))
-        return ~blocked.reshape(len(points), count)
+        return _seen(blocked).reshape(len(points), count)
 
     def _blocked(self, points, normals, offsets, reach) -> np.ndarray:
         """(n,) whether a surface lies between points (lifted RAY_EPSILON off their surface)
-        and points + reach * offsets (world-space vectors); reach None: to infinity."""
+        and points + reach * offsets (world-space vectors), or the share of the light the
+        surfaces there stop where some let light through (``Visibility.blocked_unit``); reach
+        None: to infinity."""
         if len(points) == 0:
             return np.zeros(0, dtype=bool)
         visibility = self.visibility
@@ -282,7 +286,12 @@ class DirectLighting:
         else:
             # stop RAY_EPSILON short of the light, along the ray
             reach = reach - RAY_EPSILON / np.maximum(np.linalg.norm(directions, axis=1), np.finfo(float).tiny)
-        return visibility.occluded_unit(starts, directions.astype(np.float32), reach)
+        return visibility.blocked_unit(starts, directions.astype(np.float32), reach)
+
+
+def _seen(blocked: np.ndarray) -> np.ndarray:
+    """What gets through, from what ``Visibility.blocked_unit`` stops (bool, or shares)."""
+    return ~blocked if blocked.dtype == bool else 1.0 - blocked
 
 
 def _strata(count: int) -> np.ndarray:

@@ -54,7 +54,8 @@ class FormFactorEngine:
         front = mesh.front_patch_count
         if visibility is None:
             visibility = Visibility(mesh.patch_corners[:front], two_sided=mesh.back_of_front >= 0,
-                                    owners=mesh.patch_triangle[:front], casting=mesh.front_casts)
+                                    owners=mesh.patch_triangle[:front], casting=mesh.front_casts,
+                                    opacity=mesh.front_opacity)
         self.visibility = visibility
         self.receiving_points = receivers.receiving_points(mesh, self.visibility)
         self.raycaster = None if method == "hemicube" else raycast.RayCaster(

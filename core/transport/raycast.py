@@ -159,13 +159,13 @@ class RayCaster:
         offset = self._unit_probes[sources] - origin[:, None, :]  # (n, s, 3): rays, t in [0, 1]
         probed = self._blocked(origin, offset, self._cos_source(offset, sources), sources)
         result = np.zeros(len(receivers))
-        some_seen = np.flatnonzero(~probed.all(axis=1))
+        some_seen = np.flatnonzero(~(probed >= 1).all(axis=1))
         if len(some_seen) == 0:
             return result
         receivers_seen, sources_seen = receivers[some_seen], sources[some_seen]
         unoccluded = point_to_triangle(points[receivers_seen], normals[receivers_seen], self.corners[sources_seen])
         lit = unoccluded > 0
-        mixed = np.flatnonzero(lit & probed[some_seen].any(axis=1))
+        mixed = np.flatnonzero(lit & (probed[some_seen] > 0).any(axis=1))
         if len(mixed):
             pairs = some_seen[mixed]
             unoccluded[mixed] *= self._seen_fraction(origin[pairs], normal[pairs], sources[pairs], probed[pairs])
@@ -191,7 +191,7 @@ class RayCaster:
         disagree: the other samples are cast too."""
         offset = self._unit_samples[sources] - origin[:, None, :]  # (k, S, 3)
         cos_source = self._cos_source(offset, sources)  # times -distance
-        blocked = np.empty(offset.shape[:2], dtype=bool)
+        blocked = np.empty(offset.shape[:2], dtype=probed.dtype)
         blocked[:, self._probe] = probed
         if len(self._rest):
             rest = self._rest
@@ -210,16 +210,16 @@ class RayCaster:
         across = np.maximum(-cos_source, np.finfo(np.float32).tiny).reshape(-1)
         # stop RAY_EPSILON short of the source's plane, measured across it: a grazing ray then
         # cannot hit its own source through the rounding of the sample onto float32
+        blocked_unit = self.visibility.blocked_unit
         if self.owners is None:  # a light, which may lie beyond the walls
-            return self.visibility.occluded_unit(starts, directions, 1 - RAY_EPSILON / across).reshape(-1, rays)
+            return blocked_unit(starts, directions, 1 - RAY_EPSILON / across).reshape(-1, rays)
         # from a point of the surfaces to a patch: a wall with everything in front of it cannot block
-        occluded = self.visibility.occluded_between_unit
         contested = np.repeat(self._contested[sources], rays)
         if not contested.any():
-            return occluded(starts, directions, 1 - RAY_EPSILON / across).reshape(-1, rays)
-        blocked = np.zeros(len(starts), dtype=bool)
+            return blocked_unit(starts, directions, 1 - RAY_EPSILON / across, between=True).reshape(-1, rays)
+        blocked = np.zeros(len(starts), dtype=np.float64 if self.visibility.see_through else bool)
         free = np.flatnonzero(~contested)
-        blocked[free] = occluded(starts[free], directions[free], 1 - RAY_EPSILON / across[free])
+        blocked[free] = blocked_unit(starts[free], directions[free], 1 - RAY_EPSILON / across[free], between=True)
         chosen = np.flatnonzero(contested)
         blocked[chosen] = self._first_hit_blocked(starts[chosen], directions[chosen], across[chosen],
                                                   np.repeat(self.owners[sources], rays)[chosen])
@@ -259,5 +259,8 @@ def _weighted_share(offset, normal, cos_source, blocked, disc) -> np.ndarray:
     weight_sum = weight.sum(axis=1)
     weight[weight_sum <= 0] = 1.0  # no sample above both horizons: count them all alike
     weight_sum[weight_sum <= 0] = offset.shape[1]
-    weight[blocked] = 0
+    if blocked.dtype == bool:
+        weight[blocked] = 0
+    else:  # the shares of the light that see-through surfaces stop
+        weight *= 1.0 - blocked
     return weight.sum(axis=1) / weight_sum

@@ -102,8 +102,10 @@ def test_collection_instances_light_and_shade_but_get_a_note_not_colours(addon):
     assert "Radiosity" not in panel.data.color_attributes
 
 
-def test_transparency_is_named_as_baked_opaque(addon):
-    """Light through alpha and Transparent BSDF is not modelled yet: the bake says so per material."""
+def test_alpha_and_a_transparent_bsdf_are_read_as_opacity(addon):
+    """A Principled alpha of 0.4 stops 0.4 of the light and reflects 0.4 of its base colour; a Mix
+    (factor 0.5) of a Transparent BSDF and a surface stops half and reflects half
+    (tests/addon/test_transparency.py bakes the light through them)."""
     floor, panel, _ = room()
     principled = diffuse_material("Veil", (0.5, 0.5, 0.5), principled=True)
     principled.node_tree.nodes["Principled BSDF"].inputs["Alpha"].default_value = 0.4
@@ -111,15 +113,20 @@ def test_transparency_is_named_as_baked_opaque(addon):
     leaves = bpy.data.materials.new("Leaves")
     leaves.use_nodes = True
     nodes, links = leaves.node_tree.nodes, leaves.node_tree.links
+    nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.6, 0.4, 0.2, 1.0)
     mix = nodes.new("ShaderNodeMixShader")
     links.new(nodes.new("ShaderNodeBsdfTransparent").outputs[0], mix.inputs[1])
     links.new(nodes["Principled BSDF"].outputs[0], mix.inputs[2])
     links.new(mix.outputs[0], nodes["Material Output"].inputs["Surface"])
     floor.data.materials[0] = leaves
-    notes = addon.radiosity_addon.baking.prepare(bpy.context.scene).extraction.notes
-    assert "material 'Veil': alpha 0.40 baked as opaque (light passing through is not modelled yet)" in notes
-    assert any(note.startswith("material 'Leaves': Transparent BSDF baked as an opaque black surface")
-               for note in notes), notes
+    extraction = addon.radiosity_addon.baking.prepare(bpy.context.scene).extraction
+    scene, targets = extraction.scene, {target.object_name: target for target in extraction.targets}
+    veil, ground = (slice(targets[name].start, targets[name].stop) for name in (panel.name, floor.name))
+    np.testing.assert_allclose(scene.opacity[veil], 0.4)
+    np.testing.assert_allclose(scene.reflectance[veil], 0.4 * 0.5, rtol=1e-6)
+    np.testing.assert_allclose(scene.opacity[ground], 0.5)
+    np.testing.assert_allclose(scene.reflectance[ground], np.tile(0.5 * np.array([0.6, 0.4, 0.2]), (32, 1)), rtol=1e-6)
+    assert not [note for note in extraction.notes if "alpha" in note.lower() or "transparent" in note.lower()]
 
 
 def test_an_object_that_casts_no_shadow_lets_the_light_through():
