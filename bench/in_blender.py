@@ -16,6 +16,9 @@ whose emitting meshes are ``emitters`` (left out of every comparison; every othe
   optionally on a scene changed by one of VARIANTS.
 - ``check``: the same Cycles bake per object and all at once (``samples``, ``seed``).
 - ``render``: a Cycles render of the camera view to ``path`` (``samples``).
+- ``live``: a bake as the panel's button runs it (its session kept), then Live's update after each
+  of ``updates`` changes of the first material's colour, each timed (reading the scene, the
+  re-solve and the write).
 """
 
 from __future__ import annotations
@@ -42,7 +45,8 @@ def measure(case: dict) -> dict:
 
     bpy, package = blender_with_extension()
     bpy.ops.wm.open_mainfile(filepath=case["blend"], load_ui=False)
-    kinds = {"ours": _case_ours, "cycles": _case_cycles, "check": _case_check, "render": _case_render}
+    kinds = {"ours": _case_ours, "cycles": _case_cycles, "check": _case_check, "render": _case_render,
+             "live": _case_live}
     return kinds[case["kind"]](bpy, package, case) | {"threads": bpy.context.scene.render.threads,
                                                       "bpy": bpy.app.version_string}
 
@@ -172,6 +176,28 @@ def _case_check(bpy, _package, case: dict) -> dict:
     one, both = (_read_corners(bpy, name, case["emitters"]) for name in ("per_object", "together"))
     difference = max(float(np.abs(np.array(one[n]["colours"]) - np.array(both[n]["colours"])).max()) for n in one)
     return {"max_difference": difference, "seconds": times}
+
+
+def _case_live(bpy, package, case: dict) -> dict:
+    """The first bake's seconds (kept for re-solves, as in the user interface) and each Live
+    update's, after changing the base colour of the first material with one."""
+    baking, live = package.radiosity_addon.baking, package.radiosity_addon.live
+    scene = bpy.context.scene
+    start = time.perf_counter()
+    prepared = baking.prepare(scene, keep=True)
+    baking.finish(prepared, baking.run_straight(prepared, echo=False))
+    first = time.perf_counter() - start
+    material = next(m for m in bpy.data.materials if m.node_tree is not None and any(
+        "Base Color" in node.inputs or "Color" in node.inputs for node in m.node_tree.nodes))
+    socket = next(node.inputs.get("Base Color") or node.inputs.get("Color") for node in material.node_tree.nodes
+                  if "Base Color" in node.inputs or "Color" in node.inputs)
+    updates, statuses = [], []
+    for index in range(case["updates"]):
+        socket.default_value = (0.2 + 0.6 * index / case["updates"], 0.4, 0.7, 1.0)
+        start = time.perf_counter()
+        statuses.append(live.update(scene))
+        updates.append(time.perf_counter() - start)
+    return {"first": first, "updates": updates, "statuses": statuses, "material": material.name}
 
 
 def _case_render(bpy, _package, case: dict) -> dict:
