@@ -11,7 +11,8 @@ For each patch q near a node n (centroid within NEAR_REACH of its longest edge, 
 NEAR_REACH of the median longest edge) the near field reads the patch's linear interpolant of its
 corner colours V_i where the node looks, at the kernel-weighted centroid of the patch seen from
 the node (barycentric weights lambda_i, from exact point-to-triangle form factors of a
-QUADRATURE_DIVISIONS**2 split of the patch, graded where one piece dominates):
+QUADRATURE_DIVISIONS**2 split of the patch, graded where one piece dominates; at its centroid
+when F(n, q) is below QUADRATURE_FLOOR):
 
     G_n' = G_n + sum_{q near n} F(n, q) (sum_i lambda_i(n, q) V_i - B_q),   V = E + rho G'
 
@@ -45,6 +46,10 @@ NEAR_REACH = 1.25  # a patch is near a node whose point lies within this many lo
 QUADRATURE_DIVISIONS = 4
 REFINED = 2
 PEAKED = 0.25
+# Pairs whose form factor is below this are read at the patch's centroid instead: their correction,
+# F (lambda V - B_q), moves by at most F times the spread of the patch's corner colours, and they
+# are half of Sponza's pairs but 0.7 % of its near form factor (docs/notes/experiments.md).
+QUADRATURE_FLOOR = 1e-3
 PAIRS_PER_BLOCK = 1024  # pairs per block of that quadrature, spread over the threads
 RAY_PAIRS_PER_BLOCK = 1 << 14  # pairs per block of ray-cast form factors, spread over the threads
 # Corners of different patches closer than this fraction of the scene's extent share a node.
@@ -140,7 +145,7 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
         receiver=receivers,
         patch=patches,
         form_factor=factors,
-        weights=_where_seen(all_points[receivers], all_normals[receivers], mesh.patch_corners[patches]),
+        weights=_reading_points(all_points[receivers], all_normals[receivers], mesh.patch_corners[patches], factors),
         corner_receiver=corner_receiver[patches],
         points=points,
         normals=normals,
@@ -285,6 +290,16 @@ def _near_pairs(points: np.ndarray, normals: np.ndarray, mesh: Discretization, l
     factors = np.concatenate([np.zeros(0), *parts])
     seen = factors > 0
     return receivers[seen], patches[seen], factors[seen]
+
+
+def _reading_points(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray,
+                    form_factors: np.ndarray) -> np.ndarray:
+    """(K, 3) barycentric point where each point reads its near triangle: where it looks
+    (``_where_seen``), or the centroid for pairs whose form factor is below QUADRATURE_FLOOR."""
+    weights = np.full((len(points), 3), 1 / 3)
+    seen = np.flatnonzero(form_factors >= QUADRATURE_FLOOR)
+    weights[seen] = _where_seen(points[seen], normals[seen], triangles[seen])
+    return weights
 
 
 def _where_seen(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray) -> np.ndarray:

@@ -1,12 +1,16 @@
-"""``make bake``'s colours are the ones it baked before the core was split into stage packages.
+"""``make bake``'s colours are the ones it baked before, bit for bit on a machine of the kind
+that stored them.
 
 data/cornell_box_baked.npz holds the "Radiosity" attribute of every mesh of
-sample_blends/cornell_box.blend as ``make bake`` wrote it at commit 7df635d (RGBA float32 per
-corner, read with ``foreach_get("color")``), and the machine it ran on. On a machine of the same
-kind the colours must be equal bit for bit. Elsewhere NumPy's SIMD kernels and the BLAS may round
-differently: turning off AVX-512 and forcing OpenBLAS's Haswell kernels moved the colours by at
-most 1e-10 of their largest, so other machines are held to 1e-6 of it, far below what any change
-of the method moves (another seed moves them by percents).
+sample_blends/cornell_box.blend as ``make bake`` wrote it (RGBA float32 per corner, read with
+``foreach_get("color")``), and the machine it ran on: first at commit 7df635d, before the core was
+split into stage packages (which left them bit-identical), then again when near pairs of form
+factor below 1e-3 came to be read at their patch's centroid (nearfield.QUADRATURE_FLOOR), which
+moved them by at most 2.8e-6 of the largest. On a machine of the same kind the colours must be
+equal bit for bit. Elsewhere NumPy's SIMD kernels and the BLAS may round differently: turning off
+AVX-512 and forcing OpenBLAS's Haswell kernels moved the colours by at most 1e-10 of their largest,
+so other machines are held to 1e-6 of it, far below what any change of the method moves (another
+seed moves them by percents).
 """
 
 from __future__ import annotations
