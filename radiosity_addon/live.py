@@ -55,13 +55,15 @@ def update(scene, view_layer=None) -> str:
     _busy = True
     try:
         start = time.perf_counter()
-        prepared = prepare(scene, view_layer or bpy.context.view_layer, keep=True)
+        if view_layer is None:  # the window's, when it shows this scene; else the scene's first
+            view_layer = bpy.context.view_layer if bpy.context.scene == scene else scene.view_layers[0]
+        prepared = prepare(scene, view_layer, keep=True)
         reason = prepared.session.change(prepared.extraction.scene)
         if reason is not None:
             return f"Live paused: {reason}; bake again"
         finish(prepared, run(prepared, lambda _fraction, _message: True))
         return f"Live: re-solved in {1000 * (time.perf_counter() - start):.0f} ms"
-    except ValueError as error:
+    except (ValueError, RuntimeError) as error:  # bad input, or Blender refused the reading render
         return f"Live paused: {error}"
     finally:
         _busy = False
