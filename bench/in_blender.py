@@ -83,7 +83,7 @@ def _case_ours(bpy, package, case: dict) -> dict:
         raise RuntimeError(f"bpy.ops.radiosity.bake() returned {outcome}")
     summary = scene.radiosity.last_report
     if "result" in captured:
-        stats = captured["result"].stats
+        stats = captured["result"].result.stats  # baking.Baked: the bake, and its light groups
         core_seconds, stages = stats["seconds"]["total"], {k: v for k, v in stats["seconds"].items() if k != "total"}
         counts = _counts(stats)
     else:
