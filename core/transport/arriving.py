@@ -44,21 +44,16 @@ class ArrivingLight:
         """From the lights and the sky, with their shadows."""
         return self.combined(self.direct.factors_at(points, normals, report))
 
-    def on_patches(self, patches: np.ndarray | None = None, report: Report = quiet) -> np.ndarray:
-        """(k, C) from the lights and the sky, averaged over the ``patches`` (indices; None: all)."""
-        return self.combined(self.factors_on_patches(patches, report))
-
     def factors_on_patches(self, patches: np.ndarray | None = None, report: Report = quiet) -> np.ndarray:
-        """(k, S, 3) ``on_patches`` per source and unit of its intensity (``DirectLighting``)."""
+        """(k, S, 3) the lights' and the sky's light averaged over the ``patches`` (indices; None:
+        all), per source and unit of its intensity (``DirectLighting``; ``combined`` sums them)."""
         mesh = self.mesh
         chosen = slice(None) if patches is None else patches
         return self.direct.patch_factors(mesh.patch_corners[chosen], mesh.patch_normals[chosen], report)
 
-    def combined(self, factors: np.ndarray, intensities: np.ndarray | None = None) -> np.ndarray:
-        """(m, C) the light of the sources' ``factors`` (m, S, 3) at ``intensities`` (S, 3;
-        default: this light's)."""
-        intensities = self.intensities if intensities is None else intensities
-        return self.direct.combine(factors, intensities)[:, : self.channels]
+    def combined(self, factors: np.ndarray) -> np.ndarray:
+        """(m, C) the light of the sources' ``factors`` (m, S, 3) at this light's intensities."""
+        return self.direct.combine(factors, self.intensities)[:, : self.channels]
 
     def sharp(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """From the emitting patches' first shot and the lights, without the sky: the direct

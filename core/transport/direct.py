@@ -117,10 +117,6 @@ class DirectLighting:
             block, block_normals, first) + self._area_lights(block, block_normals), lambda _fraction: None)
         return factors[:, : len(self.lights)]
 
-    def patch_means(self, corners: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
-        """(P, 3) G over patches (P, 3, 3) (``patch_factors`` combined)."""
-        return self.combine(self.patch_factors(corners, normals, report))
-
     def patch_factors(self, corners: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
         """(P, S, 3) per source and unit intensity, G over patches (P, 3, 3): the mean over
         ``rays`` stratified points of each patch for point, spot and sun lights (their shadows
@@ -245,8 +241,8 @@ class DirectLighting:
         return result
 
     def _open_sky(self, points, normals, first) -> tuple[np.ndarray, np.ndarray]:
-        """Directions (m, S, 3) over each point's cosine-weighted hemisphere, and which of them
-        (m, S) see no surface: S = ``rays`` x SKY_RAYS_PER_RAY stratified directions by Malley's
+        """Directions (m, K, 3) over each point's cosine-weighted hemisphere, and which of them
+        (m, K) see no surface: K = ``rays`` x SKY_RAYS_PER_RAY stratified directions by Malley's
         method (uniform on the disc, lifted to the hemisphere), each point's strata rotated at
         random (Cranley-Patterson)."""
         grid = _strata(self.rays * SKY_RAYS_PER_RAY)

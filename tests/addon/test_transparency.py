@@ -2,8 +2,8 @@
 alpha through UVs let light through in proportion.
 
 A sun straight down at strength S gives S / pi of lighting on a floor in the open; under a plate
-that stops the share a it gives (1 - a) S / pi (closed form: nothing else reaches it but the sky's
-nothing, and the plate is black, so it reflects nothing down). Measured with Lighting Only output
+that stops the share a it gives (1 - a) S / pi (closed form: there is no sky, and the plate is
+black, so it reflects nothing down). Measured with Lighting Only output
 at floor corners well inside the plate's shadow, to float32 storage (EXACT).
 """
 
