@@ -21,6 +21,8 @@ STUDIES = {
                     "3 min"),
     "resolve": ("re-solves after colour changes against first and fresh bakes (Cornell box, Sponza): resolve.md",
                 "10 min"),
+    "breakfast": ("the breakfast room (269,538 triangles) under a sky: time, peak memory, progress and error against "
+                  "path tracing: breakfast.md", "10 min"),
     "rescore": ("a core bake of the sample Cornell box scored against the last versus_cycles run's Cycles answer "
                 "(prints; writes nothing)", "1 min"),
 }

@@ -44,9 +44,10 @@ def path_traced_corners(scene: Scene, patch_size: float, count: int, paths: int)
     """B = E + rho G at ``count`` random corners of non-emitting triangles (drawn with
     SELECTION_SEED among those with a node), G path-traced with ``paths`` paths at each corner's
     node, on the patches of a default bake of ``patch_size``. The path tracer samples emitting
-    surfaces only: ValueError if the scene has lights or a sky."""
-    if scene.lights or np.any(scene.sky):
-        raise ValueError("the path tracer samples emitting surfaces only: this scene has lights or a sky")
+    surfaces and a uniform sky: ValueError if the scene has lights or an environment."""
+    if scene.lights or scene.environment is not None:
+        raise ValueError("the path tracer samples emitting surfaces and a uniform sky: this scene has lights "
+                         "or an environment")
     mesh, _ = discretised(scene, patch_size, math.radians(BakeSettings().crease_angle), True)
     front = mesh.front_patch_count
     visibility = Visibility(mesh.patch_corners[:front], two_sided=mesh.back_of_front >= 0,
@@ -55,7 +56,8 @@ def path_traced_corners(scene: Scene, patch_size: float, count: int, paths: int)
     chosen = candidates[np.random.default_rng(SELECTION_SEED).choice(len(candidates), count, replace=False)]
     nodes = mesh.corner_node[chosen[:, 0], chosen[:, 1]]
     start = time.perf_counter()
-    found = path_traced(mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes], paths, seed=PATH_SEED)
+    found = path_traced(mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes], paths, seed=PATH_SEED,
+                        sky=scene.sky)
     reflectance = mesh.node_reflectance[nodes]
     return CornerAnswer(chosen[:, 0], chosen[:, 1], mesh.node_emission[nodes] + reflectance * found.light,
                         reflectance * found.standard_error, time.perf_counter() - start)

@@ -14,10 +14,14 @@ event estimation, Pharr, Jakob and Humphreys, "Physically Based Rendering", 4th 
   bounces rarely meet) makes the noise;
 * from the third bounce on, Russian roulette: the path survives with s = max_c of its throughput
   (at least MIN_SURVIVAL), divided by s if it does; at most MAX_BOUNCES bounces (the light of
-  longer paths, below rho_max^MAX_BOUNCES of the total, is left out).
+  longer paths, below rho_max^MAX_BOUNCES of the total, is left out);
+* a uniform sky S (``Scene.sky``) adds S times the path's throughput where a bounce meets no
+  surface (cosine-distributed bounces sample it exactly in proportion to what it gives: an
+  open point's G is S).
 
 Rays meet the patches as ``montecarlo``'s do (``Surfaces``: the front patches, a back face landing
-on its back patch). Emitting surfaces only: lights (``lights``) and the sky are not sampled.
+on its back patch; see-through surfaces are taken as opaque). Lights (``lights``) and a sky that
+varies with direction are not sampled.
 """
 
 from __future__ import annotations
@@ -102,14 +106,16 @@ def _solid_angle_densities(area_density: np.ndarray, squared: np.ndarray, cos_he
 
 
 def path_traced(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
-                paths: int, seed: int = 0, report: Report = quiet) -> Gathered:
+                paths: int, seed: int = 0, report: Report = quiet, sky: np.ndarray | None = None) -> Gathered:
     """G at ``points`` (n, 3) facing unit ``normals`` (n, 3) from ``paths`` paths each (see the
-    module docstring), with the standard error of each estimate from the spread of its paths.
-    ``visibility`` holds the mesh's front patches (as for ``montecarlo``)."""
+    module docstring), under a uniform ``sky`` (C,) (None: none), with the standard error of each
+    estimate from the spread of its paths. ``visibility`` holds the mesh's front patches (as for
+    ``montecarlo``)."""
     surfaces = Surfaces(mesh, visibility)
     emitters = _Emitters(mesh)
     reflectance = mesh.patch_reflectance
     channels = mesh.patch_emission.shape[1]
+    sky = np.zeros(channels) if sky is None else np.asarray(sky, dtype=np.float64)[:channels]
     per_block = max(1, PATHS_PER_BLOCK // max(paths, 1))
     starts = range(0, len(points), per_block)
 
@@ -123,7 +129,9 @@ def path_traced(mesh: Discretization, visibility: Visibility, points: np.ndarray
         weight = np.ones((len(point), channels))
         for bounce in range(MAX_BOUNCES):
             origin = point
-            patch, point = surfaces.hit(point, cosine_directions(normal, rng.random((len(point), 2))), normal)
+            patch, point, escaped = surfaces.opaque_hit(point, cosine_directions(normal, rng.random((len(point), 2))),
+                                                        normal)
+            total[path[escaped]] += weight[escaped] * sky
             landed = patch >= 0
             patch, point, path, weight = patch[landed], point[landed], path[landed], weight[landed]
             shining = np.flatnonzero(emitters.density[patch] > 0)

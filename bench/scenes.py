@@ -3,7 +3,8 @@ into it) or sample_blends/, or built from them into build/ (not committed: rebui
 and Sponza's licence is non-commercial).
 
 - ``load(name)``, a core Scene: "cornell" (the Cornell box with a hole in its ceiling, split
-  CORNELL_SPLIT x CORNELL_SPLIT) and "sponza" (Dabrovic Sponza with its sky quad);
+  CORNELL_SPLIT x CORNELL_SPLIT), "sponza" (Dabrovic Sponza with its sky quad) and "breakfast"
+  (the breakfast room under a uniform sky);
 - ``blend(name)``, a .blend for the studies against Cycles: "cornell_box" (the sample file),
   "fine_mesh" (the same box with walls 40 x 40) and "sponza" (``load("sponza")`` in Blender);
 - ``extracted(path)``: the core scene of a .blend as the add-on reads it, and where each triangle
@@ -15,6 +16,7 @@ The scenes with an exact answer (furnace, parallel squares, CIE room) are bench/
 from __future__ import annotations
 
 from pathlib import Path
+import dataclasses
 from typing import NamedTuple
 
 import numpy as np
@@ -28,6 +30,7 @@ from core.util.geometry import areas_and_normals
 
 CORNELL_BOX = SCENES / "cornell_box" / "cornell_box_ceiling_hole.obj"
 SPONZA = SCENES / "dabrovic_sponza" / "dabrovic_sponza.obj"
+BREAKFAST = SCENES / "breakfast_room" / "breakfast_room.obj"
 SAMPLE_BLEND = REPO / "sample_blends" / "cornell_box.blend"
 BUILT = BUILD / "scenes"
 
@@ -38,6 +41,8 @@ FINE_MESH_CELL = 0.01375  # m: grid cells that split the sample box's 0.55 m wal
 SKY_CORNERS = ((-10.5, 15.4, -2.3), (10.5, 15.4, -2.3), (10.5, 15.4, 2.3), (-10.5, 15.4, 2.3))
 SKY_EMISSION = 5.0
 SKY = "sky"  # the sky quad's object in Sponza's .blend
+# The breakfast room has no emitters: its source is lit by an environment through its open windows.
+BREAKFAST_SKY = 1.0
 
 DESCRIPTIONS = {
     "cornell": f"Cornell box with a hole cut in the ceiling for the light (`{CORNELL_BOX.name}`), "
@@ -57,12 +62,14 @@ def missing() -> str | None:
 
 
 def load(name: str) -> Scene:
-    """The core scene ``name``: "cornell" or "sponza"."""
+    """The core scene ``name``: "cornell", "sponza" or "breakfast"."""
     if name == "cornell":
         return subdivide(read_obj(CORNELL_BOX)[0], CORNELL_SPLIT)
     if name == "sponza":
         return sponza_with_names()[0]
-    raise ValueError(f"no benchmark scene {name!r}: 'cornell' or 'sponza'")
+    if name == "breakfast":
+        return dataclasses.replace(read_obj(BREAKFAST)[0], sky=np.full(3, BREAKFAST_SKY))
+    raise ValueError(f"no benchmark scene {name!r}: 'cornell', 'sponza' or 'breakfast'")
 
 
 def sponza_with_names() -> tuple[Scene, list[str]]:

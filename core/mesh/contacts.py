@@ -20,6 +20,7 @@ import numpy as np
 
 from ..util.geometry import areas_and_normals, longest_edges
 from ..util.overlaps import CONTACT_TOLERANCE, PARALLEL, touching_boxes
+from ..util.progress import heartbeat
 from ..util.spatial import ranks
 
 
@@ -48,6 +49,7 @@ def _contact_lines(corners: np.ndarray, degenerate: np.ndarray,
     size = longest_edges(corners)
     valid = np.flatnonzero(~degenerate & (size >= smallest))
     first, second = touching_boxes(corners[valid])
+    heartbeat()
     target, other = valid[first], valid[second]
     _, normals = areas_and_normals(corners)
     crossing = np.abs((normals[target] * normals[other]).sum(axis=1)) < 1 - PARALLEL
@@ -56,7 +58,9 @@ def _contact_lines(corners: np.ndarray, degenerate: np.ndarray,
     heights[np.abs(heights) <= CONTACT_TOLERANCE * size[target][:, None]] = 0
     meets = np.flatnonzero((heights.min(axis=1) <= 0) & (heights.max(axis=1) >= 0))
     target, other, heights = target[meets], other[meets], heights[meets]
+    heartbeat()
     start, end, found = _plane_sections(corners[other], heights)
+    heartbeat()
     target, start, end = target[found], start[found], end[found]
     inside = np.flatnonzero(_length_inside(corners[target], normals[target], start, end,
                                            CONTACT_TOLERANCE * size[target]) > 0)
@@ -134,6 +138,7 @@ def _cut(corners: np.ndarray, target: np.ndarray, start: np.ndarray, end: np.nda
     polygons, sizes = corners[triangles], np.full(len(triangles), 3)
     slot = np.arange(len(triangles))  # the triangle (index into ``triangles``) of each polygon
     for number in range(int(line_count.max())):
+        heartbeat()
         active = np.flatnonzero(line_count[slot] > number)
         line = first_line[slot[active]] + number
         positive, negative, split = _split(polygons[active], sizes[active], start[line], across[line],

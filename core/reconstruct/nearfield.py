@@ -38,6 +38,7 @@ from ..scene import Scene
 from ..transport.analytic import point_to_triangle
 from ..util import parallel, rows, spatial
 from ..util.geometry import barycentric_grid, longest_edges
+from ..util.progress import heartbeat
 
 NEAR_REACH = 1.25  # a patch is near a node whose point lies within this many longest edges of its centroid
 # Where a node looks on a patch: the patch split into 4 x 4 pieces, and where one piece holds
@@ -194,6 +195,7 @@ def corrected_lighting(near: NearField, mesh: Discretization, radiosity: np.ndar
         transfer[c] = weights * reflectance[column, c]
     lighting = gathered.T
     for iteration in range(1, MAX_ITERATIONS + 1):
+        heartbeat()
         # Light is never negative: where the gathered G holds less of the near patches than their
         # exact form factors give them (a noisy Monte Carlo gather, whose rays see them otherwise),
         # taking out the constant part can overshoot; the map clamped at zero is still a contraction.

@@ -132,6 +132,13 @@ class Surfaces:
             deciding = crossing[front[crossing] >= 0]
         return patch, points
 
+    def opaque_hit(self, origins: np.ndarray, directions: np.ndarray,
+                   lift: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``hit`` without ``rng`` (every surface stops the ray), and (n,) bool: whether each ray
+        met no surface at all (it leaves the scene, to the sky)."""
+        front = self.visibility.nearest(origins, directions, lift)
+        return *self._landing(origins, directions, front), front < 0
+
     def _landing(self, origins: np.ndarray, directions: np.ndarray,
                  front: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``hit``'s patches and points for the front triangles ``front`` the rays met."""

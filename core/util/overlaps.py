@@ -15,6 +15,12 @@ CONTACT_TOLERANCE = 1e-6  # distance to a plane, as a fraction of the triangle's
 # by a few 1e-4 radians from cell to cell, and must not cut itself along its shared edges), while
 # a cylinder of 1,000 sides still bends by 6e-3 radians.
 PARALLEL = 1 - np.cos(1e-3)
+_NORMAL_SPREAD = 1.01 * np.sin(1e-3)  # how far apart two unit normals PARALLEL apart can be in a component
+# The side every normal is turned to before their planes are compared (any direction few faces lie across).
+# Cells per axis of ``_sharing_a_plane``'s grids: each coordinate over its tolerance spans at most
+# 2 / 1e-3 / 2 of them (a component of a unit normal, or an offset at most the reach).
+_CELLS = 1 << 12
+SIDE = np.array([0.5773, 0.5774, 0.5775]) / np.linalg.norm([0.5773, 0.5774, 0.5775])
 
 
 def coplanar_overlaps(corners: np.ndarray, owners: np.ndarray) -> np.ndarray:
@@ -32,7 +38,7 @@ def coplanar_overlap_pairs(corners: np.ndarray, owners: np.ndarray) -> tuple[np.
     in the plane: the two overlap unless the six edge normals part their projections by more
     than the tolerance."""
     areas, normals = areas_and_normals(corners)
-    valid = np.flatnonzero(areas > 0)
+    valid = _sharing_a_plane(corners, normals, owners, np.flatnonzero(areas > 0))
     first, second = touching_boxes(corners[valid])
     a, b = valid[first], valid[second]
     keep = (owners[a] != owners[b]) & (np.abs((normals[a] * normals[b]).sum(axis=1)) >= 1 - PARALLEL)
@@ -52,6 +58,39 @@ def coplanar_overlap_pairs(corners: np.ndarray, owners: np.ndarray) -> tuple[np.
                 (project_b.max(axis=1) <= project_a.min(axis=1) + tolerance)
             overlap &= ~apart
     return a[overlap], b[overlap]
+
+
+def _sharing_a_plane(corners: np.ndarray, normals: np.ndarray, owners: np.ndarray, chosen: np.ndarray) -> np.ndarray:
+    """The triangles of ``chosen`` that may have a coplanar partner of another owner: those whose
+    plane (unit normal n, turned to face SIDE, and offset d = n . x from the scene's middle) lies
+    near another's. Coplanar partners differ by at most t_n = sin 1e-3 in each component of n
+    (PARALLEL) and t_d = 1e-3 R + CONTACT_TOLERANCE x the longest edge in d (R: the farthest
+    corner from the middle); two values at most t apart share a cell of size 2t in one of two grids
+    offset by t, so a pair shares a cell in all four in one of the 16 grids offset so. A normal
+    almost across SIDE is kept with both signs. Conservative: every triangle of a coplanar pair is
+    kept; a mesh's curved parts are not."""
+    if len(chosen) < 2:
+        return chosen
+    middle = (corners.reshape(-1, 3).min(axis=0) + corners.reshape(-1, 3).max(axis=0)) / 2
+    reach = float(np.linalg.norm(corners - middle, axis=2).max())
+    tolerance = np.array([_NORMAL_SPREAD] * 3 + [_NORMAL_SPREAD * reach
+                                                  + CONTACT_TOLERANCE * float(longest_edges(corners).max())])
+    normal = normals[chosen] * np.where(normals[chosen] @ SIDE < 0, -1.0, 1.0)[:, None]
+    triangle = chosen
+    across = np.flatnonzero(np.abs(normal @ SIDE) <= 2 * _NORMAL_SPREAD)
+    normal, triangle = np.concatenate([normal, -normal[across]]), np.concatenate([triangle, triangle[across]])
+    plane = np.column_stack([normal, np.einsum("kx,kx->k", normal, corners[triangle, 0] - middle)]) / tolerance
+    kept = np.zeros(len(corners), dtype=bool)
+    for offsets in np.ndindex(2, 2, 2, 2):
+        cells = np.floor((plane + np.array(offsets)) / 2).astype(np.int64) + _CELLS // 2
+        _, cell = np.unique(((cells[:, 0] * _CELLS + cells[:, 1]) * _CELLS + cells[:, 2]) * _CELLS + cells[:, 3],
+                            return_inverse=True)
+        lowest = np.full(cell.max() + 1, np.iinfo(np.int64).max)
+        highest = np.full(cell.max() + 1, np.iinfo(np.int64).min)
+        np.minimum.at(lowest, cell, owners[triangle])
+        np.maximum.at(highest, cell, owners[triangle])
+        kept[triangle[lowest[cell] != highest[cell]]] = True
+    return chosen[kept[chosen]]
 
 
 def padded_boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

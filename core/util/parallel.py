@@ -7,6 +7,8 @@ import os
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Callable, Iterable, Iterator, TypeVar
 
+from .progress import REPORT_INTERVAL, heartbeat
+
 Item = TypeVar("Item")
 Result = TypeVar("Result")
 
@@ -16,18 +18,31 @@ _pool = ThreadPoolExecutor(max_workers=THREADS, thread_name_prefix="radiosity")
 
 def map_ordered(function: Callable[[Item], Result], items: Iterable[Item]) -> Iterator[Result]:
     """Results of ``function`` over ``items`` in order, computed THREADS at a time ahead of the
-    consumer (so a slow consumer, or one that stops early, does not queue unbounded work)."""
+    consumer (so a slow consumer, or one that stops early, does not queue unbounded work); while
+    it waits, the running bake's caller hears that it goes on (``progress.heartbeat``)."""
     pending = []
     try:
         for item in items:
             pending.append(_pool.submit(function, item))
             if len(pending) > THREADS:
-                yield pending.pop(0).result()
+                yield _waited(pending.pop(0))
         while pending:
-            yield pending.pop(0).result()
+            yield _waited(pending.pop(0))
     finally:  # the consumer stopped early (a cancel, an error): drop the work not yet started
         for future in pending:
             future.cancel()
+
+
+def _waited(future: Future) -> Result:
+    """``future``'s result, the caller told every REPORT_INTERVAL that the bake goes on."""
+    while True:
+        try:
+            result = future.result(timeout=REPORT_INTERVAL)
+        except TimeoutError:
+            heartbeat()
+            continue
+        heartbeat()
+        return result
 
 
 def submit(function: Callable[..., Result], *args) -> Future:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import time
 from contextlib import contextmanager
+from contextvars import ContextVar
 from typing import Callable, Iterator, TypeVar
 
 ProgressCallback = Callable[[float, str], "bool | None"]
@@ -48,13 +49,19 @@ class Progress:
         self._callback = callback
         self._last = time.perf_counter()
         self._start, self._span, self._stage = 0.0, 1.0, ""
+        self._fraction, self._detail = 0.0, ""
 
     def stage(self, name: str, start: float, end: float) -> None:
         self._start, self._span, self._stage = start, end - start, name
         self.report(0.0, force=True)
 
+    def beat(self) -> None:
+        """Tell the caller again where the stage last was (``heartbeat``)."""
+        self.report(self._fraction, self._detail)
+
     def report(self, fraction: float, detail: str = "", force: bool = False) -> None:
         """Tell the caller where the current stage is; raise BakeCancelled if it says stop."""
+        self._fraction, self._detail = fraction, detail
         if self._callback is None:
             return
         now = time.perf_counter()
@@ -65,6 +72,20 @@ class Progress:
         overall = self._start + self._span * min(max(fraction, 0.0), 1.0)
         if self._callback(overall, message) is False:
             raise BakeCancelled(f"cancelled during {self._stage}")
+
+
+_running: ContextVar[Progress | None] = ContextVar("running", default=None)
+
+
+def heartbeat() -> None:
+    """Tell the caller of the bake running in this thread, if any, that it goes on (at most every
+    REPORT_INTERVAL, the bar where its stage last put it), and raise BakeCancelled if it says
+    stop: for long steps deep inside a stage that cannot know their share of it (the thread
+    pool's waits, ``parallel.map_ordered``). The pool's own threads have no bake: they never
+    raise."""
+    progress = _running.get()
+    if progress is not None:
+        progress.beat()
 
 
 class Stages:
@@ -86,9 +107,11 @@ class Stages:
         self._open.append([start, end, 0.0])
         self.progress.stage(name, start, end)
         clock = time.perf_counter()
+        running = _running.set(self.progress)
         try:
             return function(*args, self.progress.report)
         finally:
+            _running.reset(running)
             elapsed = time.perf_counter() - clock
             inner = self._open.pop()[2]
             key = timer or name

@@ -8,10 +8,11 @@ from typing import Callable
 import numpy as np
 
 from . import parallel
+from .progress import heartbeat
 
-# ``points_in_boxes`` lists a box in every grid cell it overlaps; one overlapping more than
-# LARGE_CELLS cells is tested against every point instead.
-LARGE_CELLS = 4096
+# ``points_in_boxes`` lists a box in every cell it overlaps of a grid whose cells are at least
+# 1 / BOX_SPAN of its size: at most BOX_SPAN + 1 cells per axis.
+BOX_SPAN = 16
 # ``overlapping_boxes`` lists a box in a grid whose cells are between 1 / LISTED_CELLS and twice
 # that of its size: up to 5 x 5 x 5 cells (2 x 2 x 2 would put more boxes in each).
 LISTED_CELLS = 4.0
@@ -53,7 +54,10 @@ def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray,
                   cell, False),
                  (low_b, high_b, np.flatnonzero(level_b < level), low_a, high_a, np.flatnonzero(level_a == level),
                   cell, True)]
-    blocks = [(block, job[7]) for job in jobs for block in _cell_pairs(*job[:7], origin)]
+    blocks = []
+    for job in jobs:
+        heartbeat()
+        blocks += [(block, job[7]) for block in _cell_pairs(*job[:7], origin)]
     keys = [empty]
     for (found, listed), swapped in zip(parallel.map_ordered(lambda block: block[0](), blocks),
                                         (swapped for _, swapped in blocks)):
@@ -66,23 +70,14 @@ def points_in_boxes(points: np.ndarray, low: np.ndarray, high: np.ndarray,
                     keep: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Index pairs (i, j), each once, of the points (n, 3) lying in or on the boxes (corners
     (m, 3)) for which ``keep(i, j)`` (index arrays to a bool mask; None: all) holds, in a fixed
-    order. Each point falls in one cell of a grid (POINT_CELL), so each pair is found once, and
-    ``keep`` runs on the candidates block by block on the pool's threads: a caller's filters
-    never see the whole candidate set at once."""
+    order. Each box is listed in the cells it overlaps of a grid of cells POINT_CELL x the median
+    box, or, for a box over BOX_SPAN of them, of a grid twice, four times, ... as coarse (a wall
+    among small patches lists a few hundred cells, not every point); each point falls in one cell
+    of each grid, so each pair is found once, and ``keep`` runs on the candidates block by block
+    on the pool's threads: a caller's filters never see the whole candidate set at once."""
     empty = np.zeros(0, dtype=np.int64)
     if len(points) == 0 or len(low) == 0:
         return empty, empty
-    origin = np.minimum(points.min(axis=0), low.min(axis=0))
-    spread = float((np.maximum(points.max(axis=0), high.max(axis=0)) - origin).max())
-    cell = _cell_size((high - low).max(axis=1), spread, POINT_CELL)
-    cells, spans = _cells(low, high, origin, cell)
-    point_cells = np.floor((points - origin) / cell).astype(np.int64)
-    shape = tuple(np.maximum(point_cells.max(axis=0), (cells + spans - 1).max(axis=0)) + 1)
-    point_keys = np.ravel_multi_index(point_cells.T, shape)
-    by_cell = np.argsort(point_keys, kind="stable")
-    sorted_keys = point_keys[by_cell]
-    listed = spans.prod(axis=1)
-    large = listed > LARGE_CELLS
     everything = np.arange(len(points))
 
     def accept(first: np.ndarray, second: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -93,35 +88,56 @@ def points_in_boxes(points: np.ndarray, low: np.ndarray, high: np.ndarray,
             first, second = first[chosen], second[chosen]
         return first, second
 
-    def listed_block(boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        listing, owner = _listings(cells[boxes], spans[boxes])
-        keys = np.ravel_multi_index(listing.T, shape)
-        start = np.searchsorted(sorted_keys, keys, side="left")
-        count = np.searchsorted(sorted_keys, keys, side="right") - start
-        total = np.cumsum(count)
-        found, begin = [], 0
-        while begin < len(keys):  # at most PAIRS_PER_BLOCK candidates at once
-            end = max(begin + 1, int(np.searchsorted(total, (total[begin - 1] if begin else 0) + PAIRS_PER_BLOCK)))
-            chunk = slice(begin, end)
-            first = by_cell[np.repeat(start[chunk], count[chunk]) + ranks(count[chunk])]
-            found.append(accept(first, boxes[np.repeat(owner[chunk], count[chunk])]))
-            begin = end
-        return _joined(found)
-
-    def large_block(box: int) -> tuple[np.ndarray, np.ndarray]:
-        return _joined([accept(chunk, np.full(len(chunk), box))  # every point, PAIRS_PER_BLOCK at once
-                        for chunk in np.array_split(everything, -(-len(points) // PAIRS_PER_BLOCK))])
-
     if len(points) * len(low) <= EVERY_PAIR:  # every pair, the boxes split among the threads
         shares = np.array_split(np.arange(len(low)), min(parallel.THREADS, len(low)))
         return _joined(list(parallel.map_ordered(
             lambda boxes: accept(np.tile(everything, len(boxes)), np.repeat(boxes, len(points))), shares)))
-    small = np.flatnonzero(~large)
-    bounds = np.searchsorted(np.cumsum(listed[small]), np.arange(LISTINGS_PER_BLOCK, listed[small].sum(),
-                                                                  LISTINGS_PER_BLOCK))
-    blocks = [(listed_block, boxes) for boxes in np.split(small, bounds)] + \
-        [(large_block, box) for box in np.flatnonzero(large)]
-    return _joined(list(parallel.map_ordered(lambda job: job[0](job[1]), blocks)))
+    origin = np.minimum(points.min(axis=0), low.min(axis=0))
+    spread = float((np.maximum(points.max(axis=0), high.max(axis=0)) - origin).max())
+    sizes = (high - low).max(axis=1)
+    base = _cell_size(sizes, spread, POINT_CELL)
+    with np.errstate(divide="ignore"):
+        level = np.maximum(np.ceil(np.log2(sizes / (BOX_SPAN * base))), 0).astype(np.int64)
+    blocks = []
+    for coarser in np.unique(level):
+        heartbeat()
+        grid = _PointGrid(points, low, high, origin, base * 2.0 ** int(coarser))
+        boxes = np.flatnonzero(level == coarser)
+        listed = grid.spans[boxes].prod(axis=1)
+        bounds = np.searchsorted(np.cumsum(listed), np.arange(LISTINGS_PER_BLOCK, listed.sum(), LISTINGS_PER_BLOCK))
+        blocks += [(grid, chunk) for chunk in np.split(boxes, bounds)]
+    return _joined(list(parallel.map_ordered(lambda job: job[0].pairs(job[1], accept), blocks)))
+
+
+class _PointGrid:
+    """The points sorted by their cell of a grid (cells of size ``cell`` from ``origin``), and
+    the cells each box overlaps."""
+
+    def __init__(self, points: np.ndarray, low: np.ndarray, high: np.ndarray, origin: np.ndarray,
+                 cell: float) -> None:
+        self.cells, self.spans = _cells(low, high, origin, cell)
+        point_cells = np.floor((points - origin) / cell).astype(np.int64)
+        self.shape = tuple(np.maximum(point_cells.max(axis=0), (self.cells + self.spans - 1).max(axis=0)) + 1)
+        point_keys = np.ravel_multi_index(point_cells.T, self.shape)
+        self.by_cell = np.argsort(point_keys, kind="stable")
+        self.sorted_keys = point_keys[self.by_cell]
+
+    def pairs(self, boxes: np.ndarray, accept) -> tuple[np.ndarray, np.ndarray]:
+        """``accept(points, boxes)`` of the candidate pairs of ``boxes``: the points in their cells,
+        at most PAIRS_PER_BLOCK at once."""
+        listing, owner = _listings(self.cells[boxes], self.spans[boxes])
+        keys = np.ravel_multi_index(listing.T, self.shape)
+        start = np.searchsorted(self.sorted_keys, keys, side="left")
+        count = np.searchsorted(self.sorted_keys, keys, side="right") - start
+        total = np.cumsum(count)
+        found, begin = [], 0
+        while begin < len(keys):
+            end = max(begin + 1, int(np.searchsorted(total, (total[begin - 1] if begin else 0) + PAIRS_PER_BLOCK)))
+            chunk = slice(begin, end)
+            first = self.by_cell[np.repeat(start[chunk], count[chunk]) + ranks(count[chunk])]
+            found.append(accept(first, boxes[np.repeat(owner[chunk], count[chunk])]))
+            begin = end
+        return _joined(found)
 
 
 def _joined(parts: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:

@@ -78,3 +78,47 @@ def test_a_two_sided_emitter_shines_from_its_back_too():
     spread = np.hypot(two.standard_error[0, 0], front.standard_error[0, 0])
     assert abs(two.light[0, 0] - front.light[0, 0]) <= 4 * spread
     assert two.light[0, 0] > 0.5
+
+
+SKY = 2.0
+
+
+def sky_traced(with_square: bool, point, normal):
+    """A 4 x 4 floor of reflectance 0.6 at z = 0 under a uniform sky S, and (``with_square``) a black
+    unit square 0.5 above its centre facing down: G at ``point`` facing ``normal`` from 20,000
+    paths, and the corners of the triangles."""
+    parts = [quad([-2, -2, 0], [4, 0, 0], [0, 4, 0])]
+    if with_square:
+        parts.append(quad([-0.5, -0.5, 0.5], [0, 1, 0], [1, 0, 0]))
+    vertices, triangles = merge(*parts)
+    reflectance = np.zeros((len(triangles), 3))
+    reflectance[:2] = 0.6
+    scene = Scene(vertices, triangles, reflectance, np.zeros((len(triangles), 3)), sky=np.full(3, SKY))
+    mesh = discretize(scene, 10.0)
+    front = mesh.front_patch_count
+    visibility = Visibility(mesh.patch_corners[:front], two_sided=mesh.back_of_front >= 0)
+    found = path_traced(mesh, visibility, np.array([point], float), np.array([normal], float), 20000, seed=1,
+                        sky=scene.sky)
+    return found, vertices[triangles]
+
+
+def form_factor(point, normal, triangles) -> float:
+    """F from ``point`` facing ``normal`` to the union of ``triangles`` (k, 3, 3), by the contour integral."""
+    return float(sum(point_to_triangle(np.array([point], float), np.array([normal], float), triangle[None])[0]
+                     for triangle in triangles))
+
+
+def test_a_uniform_sky_arrives_where_a_bounce_leaves_the_scene():
+    """Under a uniform sky S: a point on the floor facing up sees the sky but for the black square,
+    G = S (1 - F(x -> square)); a point 0.3 above the floor alone, facing down, sees the floor,
+    whose radiosity is rho S everywhere (its points see only the sky), and the sky around it,
+    G = rho S F(x -> floor) + S (1 - F(x -> floor)). Within 4 standard errors, each under 1 % of G
+    from 20,000 paths."""
+    cases = [(True, [0.1, -0.2, 0.0], [0.0, 0.0, 1.0], lambda f: SKY * (1 - f), slice(2, 4)),
+             (False, [1.0, 0.5, 0.3], [0.0, 0.0, -1.0], lambda f: SKY * (1 - 0.4 * f), slice(0, 2))]
+    for with_square, point, normal, expected, seen in cases:
+        found, corners = sky_traced(with_square, point, normal)
+        exact = expected(form_factor(point, normal, corners[seen]))
+        assert abs(found.light[0, 0] - exact) <= 4 * found.standard_error[0, 0], (found, exact)
+        assert found.standard_error[0, 0] < 0.01 * exact
+        assert exact < 0.9 * SKY  # the square and the floor each take their part

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from core.mesh.contacts import pieces
+from core.util import overlaps
 from core.util.overlaps import coplanar_overlaps
 from core.mesh.discretize import discretize
 from core.util.geometry import areas_and_normals
@@ -136,3 +137,60 @@ def test_triangles_below_the_smallest_size_neither_are_cut_nor_cut():
     corners = vertices[triangles]
     parts, owner = pieces(corners, np.zeros(len(corners), dtype=bool), smallest=0.1)
     assert np.array_equal(parts, corners) and np.array_equal(owner, np.arange(len(corners)))
+
+
+def test_the_plane_filter_keeps_every_coplanar_pair_and_few_lone_faces(monkeypatch):
+    """``overlaps._sharing_a_plane`` before the boxes: cards of two faces (the second turned over,
+    or tilted by up to 5e-7 radians and lifted by 1e-7 of its size: still coplanar) anywhere in a
+    200 m scene, some with normals across ``SIDE``, are all kept, and the pairs found are those
+    found without the filter; faces in planes of their own are dropped."""
+    rng = np.random.default_rng(3)
+    faces = []
+    for k in range(300):
+        normal = rng.normal(size=3)
+        if k % 5 == 0:  # across SIDE: kept with both signs
+            normal -= (normal @ overlaps.SIDE) * overlaps.SIDE
+        normal /= np.linalg.norm(normal)
+        along = np.cross(normal, rng.normal(size=3))
+        along /= np.linalg.norm(along)
+        across = np.cross(normal, along)
+        size = rng.uniform(0.01, 2.0)
+        face = rng.uniform(-100, 100, 3) + size * (rng.random((3, 1)) * along + rng.random((3, 1)) * across)
+        faces.append(face)
+        if k < 200:  # a card: its other face
+            tilt = rng.uniform(-5e-7, 5e-7) * np.cross(along, face - face.mean(axis=0))
+            other = face[::-1] if k % 2 else face + tilt + 1e-7 * size * normal
+            faces.append(other)
+    corners = np.array(faces)
+    owners = np.arange(len(corners))
+    areas, normals = areas_and_normals(corners)
+    kept = overlaps._sharing_a_plane(corners, normals, owners, np.arange(len(corners)))
+    assert set(range(400)) <= set(kept.tolist()) and len(kept) < 400 + 10
+    found = overlaps.coplanar_overlap_pairs(corners, owners)
+    monkeypatch.setattr(overlaps, "_sharing_a_plane", lambda corners, normals, owners, chosen: chosen)
+    unfiltered = overlaps.coplanar_overlap_pairs(corners, owners)
+    assert len(found[0]) == 400
+    np.testing.assert_array_equal(np.array(found), np.array(unfiltered))
+
+
+def test_the_plane_filter_keeps_faces_as_far_apart_as_parallel_allows():
+    """Faces turned by 0.95e-3 radians (PARALLEL allows 1e-3) about an axis in their plane through a
+    corner, 100 m from the middle: their planes differ by nearly the filter's tolerances, so they
+    often fall in different cells of one grid; each pair is kept."""
+    rng = np.random.default_rng(5)
+    faces = []
+    for _ in range(200):
+        normal = rng.normal(size=3)
+        normal /= np.linalg.norm(normal)
+        along = np.cross(normal, rng.normal(size=3))
+        along /= np.linalg.norm(along)
+        face = rng.uniform(-100, 100, 3) + rng.normal(size=(3, 3))
+        face -= np.outer((face - face[0]) @ normal, normal)  # flat, through its first corner
+        angle = 0.95e-3 * rng.choice([-1, 1])
+        turn = np.cos(angle) * np.eye(3) + np.sin(angle) * np.cross(np.eye(3), along) \
+            + (1 - np.cos(angle)) * np.outer(along, along)
+        faces += [face, face[0] + (face - face[0]) @ turn.T]
+    corners = np.array(faces)
+    _, normals = areas_and_normals(corners)
+    kept = overlaps._sharing_a_plane(corners, normals, np.arange(len(corners)), np.arange(len(corners)))
+    assert len(kept) == len(corners)

@@ -21,7 +21,6 @@ def test_overlapping_boxes_finds_exactly_the_touching_pairs(monkeypatch, grid):
     brute-force comparison of every pair, each once, sorted."""
     if grid:
         monkeypatch.setattr(spatial, "EVERY_PAIR", 0)
-        monkeypatch.setattr(spatial, "LARGE_CELLS", 64)  # some boxes take the every-pair path too
     rng = np.random.default_rng(7)
     low_a, high_a = random_boxes(rng, 400)
     low_b, high_b = random_boxes(rng, 300)
@@ -38,12 +37,11 @@ def test_overlapping_boxes_finds_exactly_the_touching_pairs(monkeypatch, grid):
 
 @pytest.mark.parametrize("grid", [True, False])
 def test_points_in_boxes_finds_exactly_the_points_inside_and_applies_the_filter(monkeypatch, grid):
-    """Points against boxes (the grid, with large boxes tested against every point, and the
-    direct test) give the brute-force pairs, each once; ``keep`` sees only pairs inside and its
+    """Points against boxes (grids of several sizes, and the direct test) give the brute-force pairs, each once; ``keep`` sees only pairs inside and its
     verdict stands."""
     if grid:
         monkeypatch.setattr(spatial, "EVERY_PAIR", 0)
-        monkeypatch.setattr(spatial, "LARGE_CELLS", 64)
+        monkeypatch.setattr(spatial, "BOX_SPAN", 2)  # many boxes on coarser grids
         monkeypatch.setattr(spatial, "LISTINGS_PER_BLOCK", 50)  # many blocks
         monkeypatch.setattr(spatial, "PAIRS_PER_BLOCK", 100)
     rng = np.random.default_rng(11)
