@@ -51,6 +51,9 @@ DESCRIPTIONS = {
     "sponza": f"Dabrovic Sponza (`{SPONZA.name}`) plus a sky light: a downward-facing emissive quad "
     f"(2 triangles, emission {SKY_EMISSION:g} in R, G and B, reflectance 0) spanning x -10.5..10.5 m, "
     "z -2.3..2.3 m at y = 15.4 m, just below the open roof of the atrium",
+    "breakfast": f"the breakfast room (`{BREAKFAST.name}`, 269,538 triangles, its materials' reflectances as in "
+    f"the file, up to 1.0) under a uniform white sky of strength {BREAKFAST_SKY:g} (`Scene.sky`) that enters "
+    "through its open windows",
 }
 
 
