@@ -8,9 +8,9 @@ the light is darker than the wall's patch). That error falls only linearly with 
 and it was most of the error of the first bakes of a Cornell box (docs/notes/experiments.md).
 
 For each patch q near a node n (centroid within NEAR_REACH of its longest edge, box within
-NEAR_REACH of the median longest edge) the near field reads the patch's linear interpolant of its
-corner colours V_i where the node looks, at the kernel-weighted centroid of the patch seen from
-the node (barycentric weights lambda_i, from exact point-to-triangle form factors of a
+NEAR_REACH of the median longest edge, not pressed under n's own surface: PRESSED_ANGLE) the near
+field reads the patch's linear interpolant of its corner colours V_i where the node looks, at the
+kernel-weighted centroid of the patch seen from the node (barycentric weights lambda_i, from exact point-to-triangle form factors of a
 QUADRATURE_DIVISIONS**2 split of the patch, graded where one piece dominates; at its centroid
 when F(n, q) is below QUADRATURE_FLOOR):
 
@@ -63,6 +63,11 @@ DARK = 1e-2
 # A patch whose corners are all within this fraction of its size above a point's tangent plane
 # (its own surface: the rounding of a coplanar patch) is not seen from it.
 HORIZON = 1e-9
+# A patch facing a node's surface (normals within PRESSED_ANGLE of opposite) closer than that
+# surface's own faces are long (a plate on a table, a cup on its saucer, a shelf over the floor)
+# lies in that surface's shadow where the node looks: its linear interpolant, from corners outside
+# the shadow, is no reading there, and the pair is left to the patch's constant.
+PRESSED_ANGLE = np.radians(25.0)
 # Point-patch pairs the gather at the interpolation nodes may cost (tens of seconds of one core):
 # in a large scene (tens of thousands of interpolation nodes) they are left out.
 GATHER_BUDGET = 50_000_000
@@ -114,7 +119,8 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
     interpolation nodes, as beyond GATHER_BUDGET)."""
     node_count = mesh.node_count
     corner_key, corner_output = _patch_corner_nodes(scene, mesh)
-    receivers, patches, factors = _near_pairs(mesh.node_points, mesh.node_normals, mesh, lit, form_factors)
+    receivers, patches, factors = _near_pairs(mesh.node_points, mesh.node_normals, _node_sizes(scene, mesh), mesh, lit,
+                                              form_factors)
     # interpolation nodes at the corners of those patches that have no output node, unless
     # gathering at them all would cost more than GATHER_BUDGET point-patch pairs (then only
     # patches whose corners are all output nodes are read as linear)
@@ -135,7 +141,7 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
     normals = mesh.patch_normals[owner_patch]
     # the interpolation nodes are corrected by the patches whose corners all have a node
     corner_receiver = np.where(corner_output >= 0, corner_output, slot[corner_key])
-    extra = _near_pairs(points, normals, mesh, lit, form_factors)
+    extra = _near_pairs(points, normals, longest_edges(mesh.patch_corners[owner_patch]), mesh, lit, form_factors)
     complete = (corner_receiver[extra[1]] >= 0).all(axis=1)
     receivers = np.concatenate([receivers, node_count + extra[0][complete]])
     patches = np.concatenate([patches, extra[1][complete]])
@@ -259,12 +265,22 @@ def _patch_corner_nodes(scene: Scene, mesh: Discretization) -> tuple[np.ndarray,
     return corner_key.reshape(-1, 3), output
 
 
-def _near_pairs(points: np.ndarray, normals: np.ndarray, mesh: Discretization, lit: np.ndarray,
+def _node_sizes(scene: Scene, mesh: Discretization) -> np.ndarray:
+    """(N,) the longest edge of the input triangles at each node."""
+    sizes = np.zeros(mesh.node_count)
+    valid = mesh.corner_node >= 0
+    edges = np.repeat(longest_edges(scene.vertices[scene.triangles])[:, None], 3, axis=1)
+    np.maximum.at(sizes, mesh.corner_node[valid], edges[valid])
+    return sizes
+
+
+def _near_pairs(points: np.ndarray, normals: np.ndarray, sizes: np.ndarray, mesh: Discretization, lit: np.ndarray,
                 form_factors: FormFactors) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(receiver, patch, F) for each ``lit`` patch whose centroid lies within NEAR_REACH of its
     longest edge of the point, and whose bounding box within NEAR_REACH of the median longest
-    edge (a patch much larger than the others is near only the points close to it), and which
-    the point sees (F > 0)."""
+    edge (a patch much larger than the others is near only the points close to it), which the
+    point sees (F > 0) and which is not pressed against the point's surface, whose faces are
+    ``sizes`` (n,) long (PRESSED_ANGLE)."""
     candidates = np.flatnonzero(lit)
     edges = longest_edges(mesh.patch_corners)
     corners = mesh.patch_corners[candidates]
@@ -279,8 +295,10 @@ def _near_pairs(points: np.ndarray, normals: np.ndarray, mesh: Discretization, l
         close = np.flatnonzero(result)
         receivers, patches, offset, edge = receivers[close], patches[close], offset[close], edges[patches[close]]
         heights = np.einsum("kcx,kx->kc", mesh.patch_corners[patches] - points[receivers][:, None], normals[receivers])
-        facing = np.einsum("kx,kx->k", offset, mesh.patch_normals[patches]) > -HORIZON * edge
-        result[close] = facing & (heights.max(axis=1) > HORIZON * edge)
+        height = np.einsum("kx,kx->k", offset, mesh.patch_normals[patches])
+        pressed = (np.einsum("kx,kx->k", normals[receivers], mesh.patch_normals[patches]) < -np.cos(PRESSED_ANGLE)) \
+            & (height < sizes[receivers])
+        result[close] = (height > -HORIZON * edge) & (heights.max(axis=1) > HORIZON * edge) & ~pressed
         return result
 
     receivers, chosen = spatial.points_in_boxes(points, corners.min(axis=1) - pad, corners.max(axis=1) + pad, may_see)

@@ -6,7 +6,9 @@ sample_blends/cornell_box.blend as ``make bake`` wrote it (RGBA float32 per corn
 ``foreach_get("color")``), and the machine it ran on: first at commit 7df635d, before the core was
 split into stage packages (which left them bit-identical), then again when near pairs of form
 factor below 1e-3 came to be read at their patch's centroid (nearfield.QUADRATURE_FLOOR), which
-moved them by at most 2.8e-6 of the largest. On a machine of the same kind the colours must be
+moved them by at most 2.8e-6 of the largest, and when patches pressed under a node's own surface
+came to keep their constant (nearfield.PRESSED_ANGLE: the tall block's back facing the back wall),
+at most 1.2e-4 (against Cycles' converged answer, `python -m bench rescore`: 0.60 -> 0.58 %). On a machine of the same kind the colours must be
 equal bit for bit. Elsewhere NumPy's SIMD kernels and the BLAS may round differently: turning off
 AVX-512 and forcing OpenBLAS's Haswell kernels moved the colours by at most 1e-10 of their largest,
 so other machines are held to 1e-6 of it, far below what any change of the method moves (another
