@@ -23,6 +23,8 @@ STUDIES = {
                 "10 min"),
     "breakfast": ("the breakfast room (269,538 triangles) under a sky: time, peak memory, progress and error against "
                   "path tracing: breakfast.md", "10 min"),
+    "growth": ("time and peak memory against triangles on the Cornell box tiled 1 to 64 times: growth.md, growth.png",
+               "25 min"),
     "rescore": ("a core bake of the sample Cornell box scored against the last versus_cycles run's Cycles answer "
                 "(prints; writes nothing)", "1 min"),
 }
