@@ -66,6 +66,9 @@ bench: $(VENV)/.ready
 	$(PY) -m bench fine_mesh
 	$(PY) -m bench sponza
 	$(PY) -m bench path_traced
+	$(PY) -m bench resolve
+	$(PY) -m bench breakfast
+	$(PY) -m bench growth
 
 # wheels/ stays: it only holds downloads, which the extension build and its test reuse
 clean:
