@@ -91,8 +91,8 @@ def report(baked: dict, wall: float, peak: int, answer, header: dict, minutes: f
         f"{baked['solver']}.",
         f"- The answer: path tracing (bench/pathtrace.py, the sky added where a bounce leaves the scene) at "
         f"{len(values)} random corners of the room, each at its node, {header['paths']:,} paths each, in "
-        f"{answer.seconds:.0f} s (when it was traced); its noise, {pct(answer.noise)} of the mean radiosity ({answer.radiosity.mean():.4f}) "
-        "in RMS. Our mean over the answer's: "
+        f"{answer.seconds:.0f} s (when it was traced); its noise, {pct(answer.noise)} of the mean radiosity "
+        f"({answer.radiosity.mean():.4f}) in RMS. Our mean over the answer's: "
         f"{values.mean() / answer.radiosity.mean():.3f}.",
         "",
         table(["measure", "value", "target", ""], rows),

@@ -10,9 +10,9 @@ and it was most of the error of the first bakes of a Cornell box (docs/notes/exp
 For each patch q near a node n (centroid within NEAR_REACH of its longest edge, box within
 NEAR_REACH of the median longest edge, not pressed under n's own surface: PRESSED_ANGLE) the near
 field reads the patch's linear interpolant of its corner colours V_i where the node looks, at the
-kernel-weighted centroid of the patch seen from the node (barycentric weights lambda_i, from exact point-to-triangle form factors of a
-QUADRATURE_DIVISIONS**2 split of the patch, graded where one piece dominates; at its centroid
-when F(n, q) is below QUADRATURE_FLOOR):
+kernel-weighted centroid of the patch seen from the node (barycentric weights lambda_i, from
+exact point-to-triangle form factors of a QUADRATURE_DIVISIONS**2 split of the patch, graded
+where one piece dominates; at its centroid when F(n, q) is below QUADRATURE_FLOOR):
 
     G_n' = G_n + sum_{q near n} F(n, q) (sum_i lambda_i(n, q) V_i - B_q),   V = E + rho G'
 
