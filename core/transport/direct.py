@@ -46,6 +46,10 @@ POINTS_PER_BLOCK = 1024
 # small share s of the hemisphere, and n stratified directions see it to about sqrt(s / n) of
 # its light: a few hundred directions keep a small window's blotches to a few percent of it.
 SKY_RAYS_PER_RAY = 16
+# A point (not a patch) that sees part of the sky takes the mean of this many rotations of its
+# directions: through a window with mullions, one rotation of 256 directions spread by 8 % of the
+# light (docs/notes/experiments.md, "The breakfast room").
+PARTLY_OPEN_PASSES = 4
 # The pieces that splitting the area lights (``discretize.light_divisions``) may add, all lights together:
 # each piece costs its rays at every point.
 MAX_ADDED_LIGHT_PIECES = 256
@@ -141,7 +145,7 @@ class DirectLighting:
         return np.concatenate(parts) if parts else np.zeros((0, self.source_count, 3))
 
     def _point_block(self, points, normals, first) -> np.ndarray:
-        return self._sharp(points, normals, first) + self._smooth(points, normals, first)
+        return self._sharp(points, normals, first) + self._smooth(points, normals, first, PARTLY_OPEN_PASSES)
 
     def _patch_block(self, corners, normals, first) -> np.ndarray:
         samples = stratified_samples(corners, self.rays, self.seed + first)  # (k, S, 3)
@@ -214,17 +218,30 @@ class DirectLighting:
                       + (sin_theta * np.sin(phi))[..., None] * bitangent[0])  # (k, s, 3)
         return self._unblocked(points, normals, directions, None).mean(axis=1)
 
-    def _smooth(self, points, normals, first) -> np.ndarray:
-        """(m, S, 3) area lights and the sky."""
+    def _smooth(self, points, normals, first, passes: int = 1) -> np.ndarray:
+        """(m, S, 3) area lights and the sky; where a point sees part of the sky, the mean of
+        ``passes`` rotations of its directions (``_open_sky``)."""
         result = self._area_lights(points, normals)
         if self.sky.any() or self.environment is not None:
             directions, open_sky = self._open_sky(points, normals, first)
-            column = len(self.lights)
-            if self.sky.any():
-                result[:, column] = (1.0 - (1 - open_sky).mean(axis=1))[:, None]
-                column += 1
-            if self.environment is not None:
-                result[:, column] = (open_sky[..., None] * self.environment.at(directions)).mean(axis=1)
+            sky = self._sky(directions, open_sky)
+            partly = np.flatnonzero((open_sky > 0).any(axis=1) & (open_sky < 1).any(axis=1))
+            for attempt in range(1, passes):
+                sky[partly] += self._sky(*self._open_sky(points[partly], normals[partly], first, attempt))
+            sky[partly] /= passes
+            result += sky
+        return result
+
+    def _sky(self, directions: np.ndarray, open_sky: np.ndarray) -> np.ndarray:
+        """(m, S, 3) the sky and the environment per unit, from the cosine-distributed
+        ``directions`` (m, K, 3) and what gets through along each (m, K)."""
+        result = np.zeros((len(directions), self.source_count, 3))
+        column = len(self.lights)
+        if self.sky.any():
+            result[:, column] = (1.0 - (1 - open_sky).mean(axis=1))[:, None]
+            column += 1
+        if self.environment is not None:
+            result[:, column] = (open_sky[..., None] * self.environment.at(directions)).mean(axis=1)
         return result
 
     def _area_lights(self, points, normals) -> np.ndarray:
@@ -240,13 +257,14 @@ class DirectLighting:
             result[:, index] = (factors.reshape(count, sources).sum(axis=1) / (math.pi * area))[:, None]
         return result
 
-    def _open_sky(self, points, normals, first) -> tuple[np.ndarray, np.ndarray]:
+    def _open_sky(self, points, normals, first, attempt: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """Directions (m, K, 3) over each point's cosine-weighted hemisphere, and which of them
         (m, K) see no surface: K = ``rays`` x SKY_RAYS_PER_RAY stratified directions by Malley's
         method (uniform on the disc, lifted to the hemisphere), each point's strata rotated at
-        random (Cranley-Patterson)."""
+        random (Cranley-Patterson), another rotation for each ``attempt``."""
         grid = _strata(self.rays * SKY_RAYS_PER_RAY)
-        rotation = np.random.default_rng([self.seed, first]).random((len(points), 1, 2))
+        rotation = np.random.default_rng([self.seed, first, *([attempt] if attempt else [])]).random(
+            (len(points), 1, 2))
         u, v = np.moveaxis((grid[None] + rotation) % 1.0, -1, 0)  # (m, S) each
         radius, angle = np.sqrt(u), 2 * math.pi * v
         tangent, bitangent = tangent_frames(normals)

@@ -216,3 +216,26 @@ def test_light_validation_names_the_problem():
         floor_scene(lights=[PointLight([0, 0, 1], [1, 1, 1]), "sun"])
     with pytest.raises(ValueError, match="sky"):
         floor_scene(sky=[1.0, -1.0, 0.0])
+
+
+def test_a_node_that_sees_part_of_the_sky_averages_several_rotations():
+    """The floor by the wall of ``test_sky_is_blocked_by_a_wall_as_its_form_factor_says``, 4 seeds:
+    a node that sees part of the sky takes PARTLY_OPEN_PASSES (4) rotations of its 256 directions,
+    so the 2 x 32 strata the wall's outline crosses weigh a quarter as much: measured 1.4 % of rho at
+    worst and 0.58 % RMS (one rotation: 3.1 % and 1.56 %). Held to 2.5 % and 1 %."""
+    wall = quad([-2, 0, 0], [4, 0, 0], [0, 0, 1.5])
+    floor = grid([-2, -2, 0], [4, 0, 0], [0, 2, 0], 8)
+    vertices, triangles = merge(floor, wall)
+    reflectance = np.full((len(triangles), 3), RHO)
+    reflectance[-2:] = 0.0
+    scene = Scene(vertices, triangles, reflectance, np.zeros_like(reflectance), sky=[1.0, 1.0, 1.0])
+    errors = []
+    for seed in range(4):
+        points, colours = vertex_values(scene, bake(scene, tolerance=1e-6, seed=seed).corner_colors, -2)
+        near = np.abs(points[:, 1] + 0.5) < 1e-9
+        factor = sum(point_to_triangle(points[near], np.tile([0.0, 0, 1], (near.sum(), 1)),
+                                       np.repeat(corners[None], near.sum(), axis=0))
+                     for corners in vertices[triangles[-2:]])
+        errors.append((colours[near, 0] - RHO * (1 - factor)) / RHO)
+    errors = np.concatenate(errors)
+    assert np.abs(errors).max() < 0.025 and np.sqrt((errors**2).mean()) < 0.01, (np.abs(errors).max(),)
