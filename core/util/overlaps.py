@@ -16,10 +16,10 @@ CONTACT_TOLERANCE = 1e-6  # distance to a plane, as a fraction of the triangle's
 # a cylinder of 1,000 sides still bends by 6e-3 radians.
 PARALLEL = 1 - np.cos(1e-3)
 _NORMAL_SPREAD = 1.01 * np.sin(1e-3)  # how far apart two unit normals PARALLEL apart can be in a component
-# The side every normal is turned to before their planes are compared (any direction few faces lie across).
 # Cells per axis of ``_sharing_a_plane``'s grids: each coordinate over its tolerance spans at most
 # 2 / 1e-3 / 2 of them (a component of a unit normal, or an offset at most the reach).
 _CELLS = 1 << 12
+# The side every normal is turned to before their planes are compared (any direction few faces lie across).
 SIDE = np.array([0.5773, 0.5774, 0.5775]) / np.linalg.norm([0.5773, 0.5774, 0.5775])
 
 
