@@ -17,7 +17,7 @@ from .reconstruct.corners import at_corners, per_corner
 from .reconstruct.correction import near_field_correction
 from .scene import Scene
 from .scene.changes import geometry_change, intensities
-from .settings import BakeSettings, resolved
+from .settings import BakeSettings, resolved, with_monte_carlo
 from .solve.levels import Solution, solve
 from .transport.arriving import ArrivingLight
 from .transport.direct import DirectLighting
@@ -129,14 +129,14 @@ class BakeSession:
 
     def _first(self, scene: Scene, progress: ProgressCallback | None) -> BakeResult:
         method = self.method
-        settings = resolved(BakeSettings(method=method, solver=self.solver, **self.knobs), scene.extent,
-                            len(scene.triangles))
+        settings = resolved(BakeSettings(method=method, solver=self.solver, **self.knobs), scene.extent)
         channels = 1 if scene.is_grey else 3
         has_direct = bool(scene.lights) or bool(scene.sky.any()) or scene.environment is not None
         stages = Stages(progress)
         span = _spans(settings, has_direct, first=True)
         mesh, panels = stages.run("discretising", span["discretise"], discretised, scene, settings.patch_size,
                                   math.radians(settings.crease_angle), settings.merge_flat, timer="discretise")
+        settings = with_monte_carlo(settings, mesh.patch_count, mesh.node_count)
         engine = stages.run("preparing rays", span["rays"], lambda _report: FormFactorEngine(
             mesh, method, settings.hemicube_resolution, settings.rays_per_form_factor, settings.seed,
             probing=settings.probe_rays), timer="setup")

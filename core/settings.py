@@ -113,8 +113,8 @@ KNOBS: tuple[Knob, ...] = (
     Knob("monte_carlo_rays", int, None, "Progressive: when the shots stop, carry the light not yet shot, with all "
          "its bounces, by particles from the patches and a final gather of this many rays at each vertex "
          "(0: off, the ambient term instead); the emitters always shoot first", "rays", low=0, square=True,
-         none="auto", none_means="64 from 50,000 triangles on, where shooting to the tolerance would take hours, "
-         "else 0"),
+         none="auto", none_means="64 where shooting to the tolerance would take minutes (patches x (patches + "
+         "vertices) from 50 million on), else 0"),
     Knob("link_tolerance", float, 0.01, "Hierarchical: a link is split while the light it carries is above this "
          "share of the mean radiosity of the surfaces that do not emit", low=0, high=1, open="both"),
     Knob("ambient", bool, True, "Progressive: add an estimate of the light not yet shot as a uniform ambient term"),
@@ -170,29 +170,37 @@ BakeSettings = dataclasses.make_dataclass(
 
 # The patch size when None: the scene's extent (the diagonal of its bounding box) over this.
 AUTO_PATCH_DIVISIONS = 8
-# From this many triangles on, Monte Carlo's Auto carries the light left after the emitters' shots
-# with LARGE_SCENE_MONTE_CARLO_RAYS gather rays: progressive refinement needs about a shot per
-# patch to converge, and a shot costs a form factor at every receiver (docs/results/sponza.md).
-LARGE_SCENE_TRIANGLES = 50_000
+# From this many point-patch form factors per round of shots on, P (P + N) for P patches and N
+# nodes, Monte Carlo's Auto carries the light left after the emitters' shots with
+# LARGE_SCENE_MONTE_CARLO_RAYS gather rays: progressive refinement needs a few shots per patch to
+# converge, and a shot costs a form factor at every patch and node. The Cornell box tiled 2 x 2
+# (2.2e7) shoots to the tolerance in 13 s, 4 x 4 (3.5e8) in 511 s, where Monte Carlo takes 7 s
+# (docs/results/growth.md); the sample Cornell box is about 1e6.
+LARGE_SCENE_SHOOTING = 50_000_000
 LARGE_SCENE_MONTE_CARLO_RAYS = 64
 
 
-def resolved(settings, extent: float, triangles: int):
-    """``settings`` with its automatic knobs decided for a scene of bounding-box diagonal
-    ``extent`` and ``triangles`` triangles: the patch size and the Monte Carlo rays."""
+def resolved(settings, extent: float):
+    """``settings`` with the patch size decided for a scene of bounding-box diagonal ``extent``
+    (the Monte Carlo rays wait for the patches: ``with_monte_carlo``)."""
     auto_patch_size = extent / AUTO_PATCH_DIVISIONS if extent > 0 else None  # None: no area, refused later
-    return dataclasses.replace(
-        settings,
-        patch_size=auto_patch_size if settings.patch_size is None else settings.patch_size,
-        monte_carlo_rays=auto_monte_carlo_rays(triangles) if settings.monte_carlo_rays is None
-        else settings.monte_carlo_rays,
-    )
+    return dataclasses.replace(settings, patch_size=auto_patch_size if settings.patch_size is None
+                               else settings.patch_size)
 
 
-def auto_monte_carlo_rays(triangles: int) -> int:
-    """``monte_carlo_rays`` for a scene of ``triangles``: LARGE_SCENE_MONTE_CARLO_RAYS from
-    LARGE_SCENE_TRIANGLES on, else 0 (shoot to the tolerance)."""
-    return LARGE_SCENE_MONTE_CARLO_RAYS if triangles >= LARGE_SCENE_TRIANGLES else 0
+def with_monte_carlo(settings, patches: int, nodes: int):
+    """``settings`` with the Monte Carlo rays decided for ``patches`` patches and ``nodes``
+    nodes (``auto_monte_carlo_rays``) unless given."""
+    if settings.monte_carlo_rays is not None:
+        return settings
+    return dataclasses.replace(settings, monte_carlo_rays=auto_monte_carlo_rays(patches, nodes))
+
+
+def auto_monte_carlo_rays(patches: int, nodes: int) -> int:
+    """``monte_carlo_rays`` for a discretisation of ``patches`` patches and ``nodes`` nodes:
+    LARGE_SCENE_MONTE_CARLO_RAYS from LARGE_SCENE_SHOOTING form factors per round of shots,
+    patches x (patches + nodes), on; else 0 (shoot to the tolerance)."""
+    return LARGE_SCENE_MONTE_CARLO_RAYS if patches * (patches + nodes) >= LARGE_SCENE_SHOOTING else 0
 
 
 class Preset(NamedTuple):

@@ -12,7 +12,7 @@ from bench.studies.tradeoffs_records import COMBOS, Case, Record
 from core import BakeSettings, Scene
 from core.mesh.discretize import discretize
 from core.settings import (
-    AUTO_PATCH_DIVISIONS, LARGE_SCENE_MONTE_CARLO_RAYS, LARGE_SCENE_TRIANGLES, PRESETS, preset_knobs,
+    AUTO_PATCH_DIVISIONS, LARGE_SCENE_MONTE_CARLO_RAYS, LARGE_SCENE_SHOOTING, PRESETS, preset_knobs,
 )
 
 ONLY_FOR = {"hemicube_resolution": "hemicube", "rays_per_form_factor": "raycast"}  # knobs of one method
@@ -91,8 +91,9 @@ FULL = {
         combos=(("raycast", "progressive"),), presets=(),
         base=(("monte_carlo_rays", LARGE_SCENE_MONTE_CARLO_RAYS), ("rays_per_form_factor", 4)), timeout=900.0,
         note="Sponza is large for these methods: shooting to convergence takes about a shot per patch, each to "
-        "every patch and vertex, hours here. So every bake is what the add-on does by default from "
-        f"{LARGE_SCENE_TRIANGLES:,} triangles on (Monte Carlo \"Auto\", core/settings.py): the emitters shoot, "
+        "every patch and vertex, hours here. So every bake is what the add-on does by default where a round of "
+        f"shots costs {LARGE_SCENE_SHOOTING:,} form factors or more (Monte Carlo \"Auto\", core/settings.py): the "
+        "emitters shoot, "
         "and the light they leave goes on by Monte Carlo (particles from the patches, then a final gather at the "
         f"vertices: core/solve/montecarlo.py) with {LARGE_SCENE_MONTE_CARLO_RAYS} gather rays per vertex unless swept, "
         "and 4 rays per form factor unless swept (as docs/results/sponza.md). `max_shots`: the brightest patches shoot "

@@ -249,7 +249,7 @@ def test_max_shots_reaches_the_core_and_the_report_says_the_bake_stopped(room):
 
 
 def test_monte_carlo_reaches_the_core_after_the_emitters_shoot(room):
-    """"Monte Carlo" (Advanced), Auto by default (off below 50,000 triangles, as here): with 256
+    """"Monte Carlo" (Advanced), Auto by default (off where shooting to the tolerance is cheap, as here): with 256
     rays the glowing panel's patches shoot
     (Max Shots 0), the report says the rest went by Monte Carlo, and the colours stay within 2 %
     RMS of the bake shot to its tolerance: the floor sees only the panel and the sun, both exact
@@ -322,16 +322,35 @@ def test_crease_angle_mode_ignores_the_shading():
     assert widest_spread_at_a_vertex(*corner_colours(sphere)) < 1e-6
 
 
-def test_monte_carlo_auto_carries_a_large_scene_after_the_emitters_shoot():
-    """Auto turns Monte Carlo on from core.settings.LARGE_SCENE_TRIANGLES on: a floor of 160 x 160
-    cells (51,200 triangles, merged into a few panels) under a glowing panel bakes with 64 rays,
-    and the report says so."""
-    grid_object("Floor", cells=160, material=diffuse_material("Floor", (0.6, 0.5, 0.4)))
+def discretised_as_baked(addon):
+    """The bake's discretisation of the current scene, and its settings resolved."""
+    core = addon.core
+    prepared = addon.radiosity_addon.baking.prepare(bpy.context.scene)
+    scene = prepared.extraction.scene
+    knobs = core.settings.resolved(core.BakeSettings(**prepared.knobs), scene.extent)
+    return core.mesh.discretize.discretised(scene, knobs.patch_size, np.radians(knobs.crease_angle),
+                                            knobs.merge_flat)[0]
+
+
+def test_monte_carlo_auto_carries_a_large_scene_after_the_emitters_shoot(addon):
+    """Auto turns Monte Carlo on where a round of shots would cost core.settings.LARGE_SCENE_SHOOTING
+    form factors or more, patches x (patches + vertices): a floor of 40 x 40 cells under a glowing
+    panel, at patches of 0.14 (about 13,000 patches and 1,700 vertices), bakes with 64 rays, and the
+    report says so; at the automatic patch size (a few dozen patches) it shoots to the tolerance."""
+    grid_object("Floor", cells=40, material=diffuse_material("Floor", (0.6, 0.5, 0.4)))
     grid_object("Panel", 1.0, 2, location=(0, 0, 1.0), material=emission_material("Glow", (1, 0.9, 0.8), 5.0),
                 facing_down=True)
     settings = bpy.context.scene.radiosity
+    settings.preset, settings.patch_size = "CUSTOM", 0.14
+    mesh = discretised_as_baked(addon)
+    assert mesh.patch_count * (mesh.patch_count + mesh.node_count) >= addon.core.settings.LARGE_SCENE_SHOOTING
     assert bake_in_background() == {"FINISHED"}
     assert "then Monte Carlo (64 rays per vertex)" in settings.last_report, settings.last_report
+    settings.patch_size = 0.0
+    mesh = discretised_as_baked(addon)
+    assert mesh.patch_count * (mesh.patch_count + mesh.node_count) < addon.core.settings.LARGE_SCENE_SHOOTING
+    assert bake_in_background() == {"FINISHED"}
+    assert "Monte Carlo" not in settings.last_report, settings.last_report
 
 
 def glowing_principled(name: str, base: float, strength: float):
@@ -345,21 +364,18 @@ def glowing_principled(name: str, base: float, strength: float):
 
 
 def test_monte_carlo_auto_finishes_when_the_emitters_reflect(addon):
-    """The large floor of the test above under two emissive Principled panels facing each other,
-    each reflecting half the light: every shot of one lights the other again, and Auto's Monte
-    Carlo must still take over once each emitting patch has shot its own light (at most one shot
-    per emitting patch, counted here on the same discretisation the bake made)."""
-    grid_object("Floor", cells=160, material=diffuse_material("Floor", (0.6, 0.5, 0.4)))
+    """The floor of the test above (patches of 0.14) under two emissive Principled panels facing
+    each other, each reflecting half the light: every shot of one lights the other again, and
+    Auto's Monte Carlo must still take over once each emitting patch has shot its own light (at
+    most one shot per emitting patch, counted here on the same discretisation the bake made)."""
+    grid_object("Floor", cells=40, material=diffuse_material("Floor", (0.6, 0.5, 0.4)))
     grid_object("Upper", 1.0, 2, location=(0, 0, 1.0), material=glowing_principled("Upper", 0.5, 5.0),
                 facing_down=True)
     grid_object("Lower", 1.0, 2, location=(0, 0, 0.6), material=glowing_principled("Lower", 0.5, 2.0))
     settings = bpy.context.scene.radiosity
+    settings.preset, settings.patch_size = "CUSTOM", 0.14
     assert bake_in_background() == {"FINISHED"}
     shots = re.search(r", ([\d,]+) shots? then Monte Carlo \(64 rays per vertex\)", settings.last_report)
     assert shots, settings.last_report
-    core = addon.core
-    prepared = addon.radiosity_addon.baking.prepare(bpy.context.scene)
-    scene = prepared.extraction.scene
-    knobs = core.settings.resolved(core.BakeSettings(**prepared.knobs), scene.extent, len(scene.triangles))
-    mesh, _ = core.mesh.discretize.discretised(scene, knobs.patch_size, np.radians(knobs.crease_angle), knobs.merge_flat)
+    mesh = discretised_as_baked(addon)
     assert int(shots[1].replace(",", "")) <= int(mesh.patch_emission.any(axis=1).sum())

@@ -9,7 +9,8 @@ import math
 import pytest
 
 from core.cli import parser
-from core.settings import KNOBS, BakeSettings, given_knobs, knob_table, resolved
+from core.settings import (KNOBS, LARGE_SCENE_MONTE_CARLO_RAYS, LARGE_SCENE_SHOOTING, BakeSettings, given_knobs,
+                           knob_table, resolved, with_monte_carlo)
 
 
 def test_bake_settings_has_the_knobs_in_order_with_their_defaults():
@@ -62,10 +63,16 @@ def test_each_knob_refuses_what_its_rule_excludes_and_takes_the_rest(knob):
 
 
 def test_resolved_decides_the_automatic_knobs():
-    settings = resolved(BakeSettings(), extent=8.0, triangles=10)
-    assert settings.patch_size == 1.0 and settings.monte_carlo_rays == 0
-    assert resolved(BakeSettings(), 8.0, 50_000).monte_carlo_rays == 64
-    assert resolved(BakeSettings(patch_size=0.5, monte_carlo_rays=16), 8.0, 50_000).patch_size == 0.5
+    settings = resolved(BakeSettings(), extent=8.0)
+    assert settings.patch_size == 1.0 and settings.monte_carlo_rays is None
+    assert resolved(BakeSettings(patch_size=0.5), 8.0).patch_size == 0.5
+    # Monte Carlo from LARGE_SCENE_SHOOTING form factors per round of shots, P (P + N), on
+    patches = 1_000
+    nodes = -(-LARGE_SCENE_SHOOTING // patches) - patches
+    assert with_monte_carlo(settings, patches, nodes - 1).monte_carlo_rays == 0
+    assert with_monte_carlo(settings, patches, nodes).monte_carlo_rays == LARGE_SCENE_MONTE_CARLO_RAYS
+    assert with_monte_carlo(BakeSettings(monte_carlo_rays=16), patches, nodes).monte_carlo_rays == 16
+    assert with_monte_carlo(BakeSettings(monte_carlo_rays=0), 10**5, 10**5).monte_carlo_rays == 0
 
 
 def test_the_command_line_offers_every_exposed_knob_by_its_name():
