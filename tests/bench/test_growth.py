@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from bench.studies.growth import SPACING, slope, tiled
+from bench.studies.growth import SPACING, slope, slopes, tiled
 from tests.bench.test_scenes import floor
 
 
@@ -24,3 +24,10 @@ def test_tiles_are_copies_side_by_side_that_never_touch():
 def test_the_slope_of_a_power_law_is_its_exponent():
     counts = [10.0, 40.0, 160.0]
     assert abs(slope(counts, [3 * c**1.5 for c in counts]) - 1.5) < 1e-12
+
+
+def test_the_last_step_shows_a_series_that_turns_steeper():
+    """Linear up to 16, then quadratic: the fit over all four sizes hides it, the last step not."""
+    counts = [1.0, 4.0, 16.0, 64.0]
+    fitted, last = slopes(counts, [1.0, 4.0, 16.0, 16.0 * 4.0**2])
+    assert abs(last - 2.0) < 1e-12 and fitted < 1.5
