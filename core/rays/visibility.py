@@ -65,6 +65,7 @@ class Visibility:
         ``nearest`` every one.
     opacity : (P,) float in [0, 1], the share of the light each triangle stops (``Scene.opacity``;
         None: all): the ``occluded`` queries see the opaque ones, ``blocked`` all that cast.
+    opaque : (P,) bool, the triangles that cast and stop all the light.
     """
 
     def __init__(self, corners: np.ndarray, backend: str | None = None, two_sided: np.ndarray | None = None,
@@ -83,6 +84,7 @@ class Visibility:
                     "use backend='numpy', or None to take what is available"
                 ) from error
         self.backend = backend
+        self.corners = corners
         points = corners.reshape(-1, 3)
         low, high = points.min(axis=0), points.max(axis=0)
         self.center = (low + high) / 2
@@ -101,6 +103,7 @@ class Visibility:
         casting = np.ones(len(unit_corners), dtype=bool) if casting is None else np.asarray(casting, bool)
         self.opacity = np.ones(len(unit_corners)) if opacity is None else np.asarray(opacity, np.float64)
         opaque = casting & (self.opacity >= 1)
+        self.opaque = opaque
         self._partial = np.flatnonzero(casting & (self.opacity > 0) & (self.opacity < 1))  # light goes through
         self._scene = _traced(backend, unit_corners)
         self._occluders = self._subset(unit_corners, opaque)

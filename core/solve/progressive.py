@@ -20,7 +20,8 @@ TOGETHER = 0.5
 class ColumnCache:
     """Form-factor columns F[:, q] (n values each) with the share of each q's light that lands on
     a patch, kept as the rows of one array, so that a group's columns come out in one gather;
-    iterated oldest first. It grows by doubling up to ``most`` rows."""
+    iterated oldest first. The array is made for ``most`` rows at once (its pages are touched,
+    and take memory, as rows are written)."""
 
     def __init__(self) -> None:
         self.most = 1 << 62
@@ -41,7 +42,7 @@ class ColumnCache:
 
     @property
     def nbytes(self) -> int:
-        return 0 if self._rows is None else self._rows.nbytes
+        return 0 if self._rows is None else self._used * self._rows.itemsize * self._rows.shape[1]
 
     def add(self, q: int, column: np.ndarray, capture: float) -> None:
         if self._free:
@@ -49,7 +50,8 @@ class ColumnCache:
         else:
             slot, self._used = self._used, self._used + 1
             if self._rows is None or slot >= len(self._rows):
-                rows = np.empty((min(max(16, 2 * slot), max(self.most, slot + 1)), len(column)))
+                # room for ``most`` at once: the memory of rows never written is never touched
+                rows = np.empty((max(self.most, slot + 1), len(column)))
                 if self._rows is not None:
                     rows[:slot] = self._rows[:slot]
                 self._rows = rows
@@ -179,9 +181,11 @@ def progressive(
         source = int(np.argmax(power))
         # the patches within TOGETHER of the brightest shoot with it, in one product (all of them,
         # so that ties in a symmetric scene are not broken by rounding, unless the columns would
-        # not fit the cache or max_shots would be passed)
+        # not fit the cache or max_shots would be passed: not in the first phase, which it does
+        # not stop)
         group = np.flatnonzero(power >= TOGETHER * power[source])
-        group = group[np.argsort(-power[group], kind="stable")][: max(1, int(min(cache_limit, limit - state.shots)))]
+        room = np.inf if waiting.any() else limit - state.shots
+        group = group[np.argsort(-power[group], kind="stable")][: max(1, int(min(cache_limit, room)))]
         missing = [int(q) for q in group if q not in cache]
         if missing:
             brightest = np.argsort(-power, kind="stable")[: batch + len(cache) + len(missing)]

@@ -37,16 +37,20 @@ def check_ray_count(count: int) -> int:
     return divisions
 
 
-def stratified_samples(patch_corners: np.ndarray, count: int, seed: int) -> np.ndarray:
+def stratified_samples(patch_corners: np.ndarray, count: int, seed: int,
+                       rotation: np.ndarray | None = None) -> np.ndarray:
     """(P, count, 3) points on each patch, one in each of ``count`` (a perfect square) congruent
-    strata; a uniform point in a triangle is (1 - sqrt(u), sqrt(u) (1 - v), sqrt(u) v). The
+    strata, shifted by a Cranley-Patterson ``rotation`` (P, 1, 2) in [0, 1) (default: drawn from
+    ``seed``); a uniform point in a triangle is (1 - sqrt(u), sqrt(u) (1 - v), sqrt(u) v). The
     result has the dtype of ``patch_corners``."""
     grid, cells = barycentric_grid(check_ray_count(count))
     strata = grid[cells]  # (count, 3 corners, 3 barycentric)
     base = np.arange(count)
     base = np.stack([(base + 0.5) / count, (base * _GOLDEN) % 1.0], axis=1)
     dtype = patch_corners.dtype
-    rotation = np.random.default_rng(seed).random((len(patch_corners), 1, 2)).astype(dtype)
+    if rotation is None:
+        rotation = np.random.default_rng(seed).random((len(patch_corners), 1, 2))
+    rotation = rotation.astype(dtype)
     uv = (base.astype(dtype) + rotation) % 1.0
     root = np.sqrt(uv[..., 0])
     local = np.stack([1 - root, root * (1 - uv[..., 1]), root * uv[..., 1]], axis=2)  # (P, S, 3)
@@ -129,6 +133,14 @@ class RayCaster:
         result = np.zeros((len(points), len(sources)))
         result[receivers, chosen] = self.form_factors(points, normals, receivers, sources[chosen])
         return result
+
+    def faces(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray) -> np.ndarray:
+        """(n,) bool, pairwise: what ``grid_form_factors`` tests, for points (n, 3) facing normals
+        (n, 3) and the patches ``sources`` (n,)."""
+        corners = self.corners[sources]
+        ahead = np.einsum("nx,nx->n", points - corners[:, 0], self.normals[sources]) > 0
+        highest = np.einsum("ncx,nx->nc", corners, normals).max(axis=1)
+        return ahead & (highest > np.einsum("nx,nx->n", points, normals))
 
     def form_factors(self, points: np.ndarray, normals: np.ndarray, receivers: np.ndarray,
                      sources: np.ndarray) -> np.ndarray:

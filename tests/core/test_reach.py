@@ -1,0 +1,136 @@
+"""Shots evaluated only inside the box their source's rays reach (core/transport/reach.py), against
+the same shots evaluated at every receiver: the same pairs alike, none across a wall, and what a
+thin opening the rays miss loses, against its bound."""
+
+import math
+
+import numpy as np
+import pytest
+
+from core import Scene
+from core.mesh.discretize import discretised
+from core.transport import formfactors, reach
+from core.transport.formfactors import FormFactorEngine
+from tests.core.scenes import merge, quad
+
+LIGHT = 10.0
+# The share of a source's power its box may lose through a thin opening all its rays missed: a
+# few rays' worth (measured here: 0.58 % for a ceiling patch over the light panel, seeing the
+# walls' tops through the 2 cm between them; 0.65 % through the 0.2 slit at grazing angles).
+LEAK = 4 / reach.REACH_RAYS
+
+
+def room(offset: float, slit: tuple[float, float] | None = None):
+    """A closed unit cube at x = offset, facing in, with a light panel under its ceiling when
+    ``slit`` is None; with a slit (z from, z to) across its wall at x = offset + 1 (faces -x)."""
+    o = offset
+    parts = [quad([o, 0, 0], [1, 0, 0], [0, 1, 0]), quad([o, 0, 1], [0, 1, 0], [1, 0, 0]),
+             quad([o, 0, 0], [0, 1, 0], [0, 0, 1]), quad([o, 0, 0], [0, 0, 1], [1, 0, 0]),
+             quad([o, 1, 0], [1, 0, 0], [0, 0, 1])]
+    if slit is None:
+        parts.append(quad([o + 1, 0, 0], [0, 0, 1], [0, 1, 0]))
+    else:
+        low, high = slit
+        parts += [quad([o + 1, 0, 0], [0, 0, low], [0, 1, 0]), quad([o + 1, 0, high], [0, 0, 1 - high], [0, 1, 0])]
+    return merge(*parts)
+
+
+def two_rooms(slit: tuple[float, float] | None = None) -> Scene:
+    """Two unit rooms side by side (the second at x = 1, sharing the plane of the first's far
+    wall, its own wall there facing +x), a light panel under the first's ceiling. With ``slit``
+    both walls at x = 1 are cut across at those heights: the light reaches the second room
+    through it alone."""
+    first = room(0.0, slit)
+    second_parts = [quad([1, 0, 0], [1, 0, 0], [0, 1, 0]), quad([1, 0, 1], [0, 1, 0], [1, 0, 0]),
+                    quad([2, 0, 0], [0, 0, 1], [0, 1, 0]), quad([1, 0, 0], [0, 0, 1], [1, 0, 0]),
+                    quad([1, 1, 0], [1, 0, 0], [0, 0, 1])]
+    if slit is None:
+        second_parts.append(quad([1, 0, 0], [0, 1, 0], [0, 0, 1]))
+    else:
+        low, high = slit
+        second_parts += [quad([1, 0, 0], [0, 1, 0], [0, 0, low]), quad([1, 0, high], [0, 1, 0], [0, 0, 1 - high])]
+    light = quad([0.35, 0.35, 0.98], [0, 0.3, 0], [0.3, 0, 0])  # faces -z
+    vertices, triangles = merge(first, *second_parts, light)
+    emission = np.zeros((len(triangles), 3))
+    emission[-2:] = LIGHT
+    reflectance = np.full((len(triangles), 3), 0.5)
+    reflectance[-2:] = 0.0
+    return Scene(vertices, triangles, reflectance, emission)
+
+
+def columns(scene: Scene, culled: bool, monkeypatch) -> tuple[np.ndarray, FormFactorEngine, np.ndarray, list]:
+    """The shooting columns (P + N, k) of the light's patches and of every 7th patch, with or
+    without reach boxes, the engine, the sources, and the pairs evaluated (receiving points
+    moved a hair off their surfaces, sources)."""
+    mesh, _ = discretised(scene, 0.1, math.radians(30), True)
+    monkeypatch.setattr(formfactors, "REACH_RECEIVERS", 0 if culled else 1 << 62)
+    monkeypatch.setattr(formfactors, "REACH_SHARE", 1.0)  # every box searched, however large
+    engine = FormFactorEngine(mesh, "raycast", 64, 16, 0, probing=True)
+    evaluated, evaluate = [], engine.raycaster.form_factors
+
+    def recorded(points, normals, receivers, sources):
+        evaluated.append((points[receivers] + 1e-3 * normals[receivers], sources))
+        return evaluate(points, normals, receivers, sources)
+
+    monkeypatch.setattr(engine.raycaster, "form_factors", recorded)
+    sources = np.union1d(np.flatnonzero(mesh.patch_emission.any(axis=1)), np.arange(0, mesh.patch_count, 7))
+    result = np.concatenate([engine.shooting_columns(sources[start:start + 16])[0]
+                             for start in range(0, len(sources), 16)], axis=1)
+    return result, engine, sources, evaluated
+
+
+def lost_shares(full: np.ndarray, culled: np.ndarray, engine: FormFactorEngine, sources: np.ndarray,
+                patches: np.ndarray) -> np.ndarray:
+    """(k,) the share of each source's power that lands on ``patches`` in the full columns and not
+    in the culled ones: sum_r A_r (F - F')[r, q] / A_q (reciprocity)."""
+    areas = engine.mesh.patch_areas
+    return areas[patches] @ (full - culled)[patches] / areas[sources]
+
+
+def test_a_shot_in_a_closed_room_skips_the_next_room_and_loses_little(monkeypatch):
+    """Two closed rooms: no shot reaches the other room (but through the seams of its walls, to
+    rounding); the culled shots evaluate a tenth of the pairs across the wall that the full ones
+    do (receivers facing the source from behind it; the boxes reach a little past the wall);
+    every pair is evaluated as it is at every receiver, or not at all; and what a source loses (a
+    ceiling patch over the light panel sees the walls' tops only through the 2 cm between them, at
+    grazing angles) is at most LEAK of its power."""
+    scene = two_rooms()
+    full, full_engine, sources, full_pairs = columns(scene, False, monkeypatch)
+    culled, _, _, culled_pairs = columns(scene, True, monkeypatch)
+    points, normals = full_engine._shot_receivers
+    mesh = full_engine.mesh
+    in_second = (points + 1e-3 * normals)[:, 0] > 1  # a wall at x = 1 is in the room it faces
+    source_in_second = (mesh.patch_centroids + 1e-3 * mesh.patch_normals)[:, 0] > 1
+    for j, source in enumerate(sources):
+        other = in_second != source_in_second[source]
+        assert culled[other, j].sum() <= 1e-6 and full[other, j].sum() <= 1e-6  # rays through the seams: 5e-9
+
+    def across(pairs) -> int:
+        return sum(int(((points[:, 0] > 1) != source_in_second[pair_sources]).sum()) for points, pair_sources in pairs)
+
+    # (those left: the boxes reach a ray's spread past where the rays land, here across the wall)
+    assert across(full_pairs) > 1000 and across(culled_pairs) <= 0.1 * across(full_pairs)
+    assert ((np.abs(culled - full) <= 1e-12) | (culled == 0)).all()  # each pair evaluated alike, or not at all
+    lost = lost_shares(full, culled, full_engine, sources, np.arange(full_engine.mesh.patch_count))
+    assert lost.max() <= LEAK, lost.max()
+
+
+@pytest.mark.parametrize("width", [0.004, 0.2])
+def test_what_a_slit_between_two_rooms_lets_through(monkeypatch, width):
+    """The light reaches the second room through a slit across the wall between them. Through a
+    slit the rays pass (0.2 high) most of that light is still shot (receivers there seen only
+    between the rays, outside the box of all they hit, are not); one much narrower than their
+    spacing (0.004) may be missed. Either way the light the second room's patches lose is at
+    most LEAK of the panel's power."""
+    scene = two_rooms((0.5 - width / 2, 0.5 + width / 2))
+    full, engine, sources, _ = columns(scene, False, monkeypatch)
+    culled, _, _, _ = columns(scene, True, monkeypatch)
+    mesh = engine.mesh
+    lights = np.flatnonzero(mesh.patch_emission[sources].any(axis=1))
+    second = np.flatnonzero(mesh.patch_centroids[:, 0] > 1)
+    reached = mesh.patch_areas[second] @ full[second][:, lights] / mesh.patch_areas[sources[lights]]
+    lost = lost_shares(full[:, lights], culled[:, lights], engine, sources[lights], second)
+    assert reached.min() > 0  # the slit lets light through
+    assert lost.max() <= LEAK, lost.max()
+    if width > 0.1:
+        assert (lost <= 0.1 * reached).all(), (lost / reached).max()
