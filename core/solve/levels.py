@@ -170,7 +170,7 @@ class _Levels:
             cache_bytes=settings.column_cache, report=report, state=self.state, first=first,
             cache=self.kept.setdefault("columns", ColumnCache()),
         )
-        self.extra_bytes = max(self.extra_bytes, stats["cached_columns"] * 8 * (mesh.patch_count + mesh.node_count))
+        self.extra_bytes = max(self.extra_bytes, self.kept["columns"].nbytes)
         self.stats = stats
         return radiosity, node_lighting
 

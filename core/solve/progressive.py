@@ -15,21 +15,27 @@ from ..util.progress import Report, effort, quiet
 # least this share of its: one matrix product instead of a loop of shots (a block of Southwell's
 # method), which changes little in what is shot.
 TOGETHER = 0.5
+# A column with at most this share of nonzero values is kept as those values and their indices.
+SPARSE = 0.25
 
 
 class ColumnCache:
     """Form-factor columns F[:, q] (n values each) with the share of each q's light that lands on
-    a patch, kept as the rows of one array, so that a group's columns come out in one gather;
-    iterated oldest first. The array is made for ``most`` rows at once (its pages are touched,
-    and take memory, as rows are written)."""
+    a patch, iterated oldest first. A column with more than SPARSE of its values nonzero is a row
+    of one array, so that a group's columns come out in one gather (the array is made for
+    ``most`` rows at once: its pages are touched, and take memory, as rows are written); one with
+    fewer (a shot that reached its room alone, ``transport.reach``) keeps its nonzero values and
+    their indices."""
 
     def __init__(self) -> None:
         self.most = 1 << 62
         self._rows: np.ndarray | None = None
-        self._slot: dict[int, int] = {}  # q: its row, in the order the columns came
+        # q: its row, or its (indices, values), in the order the columns came
+        self._slot: dict[int, int | tuple[np.ndarray, np.ndarray]] = {}
         self._capture: dict[int, float] = {}
         self._free: list[int] = []
         self._used = 0  # rows [0, used) have held a column
+        self._sparse_bytes = 0
 
     def __contains__(self, q: int) -> bool:
         return q in self._slot
@@ -42,29 +48,52 @@ class ColumnCache:
 
     @property
     def nbytes(self) -> int:
-        return 0 if self._rows is None else self._used * self._rows.itemsize * self._rows.shape[1]
+        rows = 0 if self._rows is None else self._used * self._rows.itemsize * self._rows.shape[1]
+        return rows + self._sparse_bytes
 
     def add(self, q: int, column: np.ndarray, capture: float) -> None:
+        nonzero = np.flatnonzero(column)
+        self._capture[q] = capture
+        if len(nonzero) <= SPARSE * len(column):
+            self._slot[q] = (nonzero.astype(np.int32), column[nonzero])
+            self._sparse_bytes += 12 * len(nonzero)
+            return
         if self._free:
             slot = self._free.pop()
         else:
             slot, self._used = self._used, self._used + 1
             if self._rows is None or slot >= len(self._rows):
-                # room for ``most`` at once: the memory of rows never written is never touched
                 rows = np.empty((max(self.most, slot + 1), len(column)))
                 if self._rows is not None:
                     rows[:slot] = self._rows[:slot]
                 self._rows = rows
         self._rows[slot] = column
-        self._slot[q], self._capture[q] = slot, capture
+        self._slot[q] = slot
 
     def remove(self, q: int) -> None:
-        self._free.append(self._slot.pop(q))
+        slot = self._slot.pop(q)
+        if isinstance(slot, tuple):
+            self._sparse_bytes -= 12 * len(slot[0])
+        else:
+            self._free.append(slot)
         del self._capture[q]
 
-    def columns(self, sources: np.ndarray) -> np.ndarray:
-        """(k, n) the columns of the k ``sources``, as rows."""
-        return self._rows[[self._slot[int(q)] for q in sources]]
+    def shot(self, sources: np.ndarray, shooting: np.ndarray, size: int) -> np.ndarray:
+        """(size, C) sum_j F[:, sources[j]] shooting[j], for ``shooting`` (k, C) and columns of
+        ``size`` values."""
+        slots = [self._slot[int(q)] for q in sources]
+        dense = [j for j, slot in enumerate(slots) if not isinstance(slot, tuple)]
+        if len(dense) == len(slots):
+            return self._rows[slots].T @ shooting
+        result = self._rows[[slots[j] for j in dense]].T @ shooting[dense] if dense \
+            else np.zeros((size, shooting.shape[1]))
+        sparse = [j for j, slot in enumerate(slots) if isinstance(slot, tuple)]
+        indices = np.concatenate([slots[j][0] for j in sparse])
+        values = [slots[j][1] for j in sparse]
+        for c in range(shooting.shape[1]):
+            result[:, c] += np.bincount(indices, np.concatenate([v * shooting[j, c] for j, v in zip(sparse, values)]),
+                                        size)
+        return result
 
     def captures(self, sources: np.ndarray) -> np.ndarray:
         return np.array([self._capture[int(q)] for q in sources])
@@ -210,7 +239,7 @@ def progressive(
         received = np.zeros_like(radiosity)
         for start in range(0, len(group), batch):  # (P + N, batch) columns at a time, not the group's
             part = group[start:start + batch]
-            received += cache.columns(part).T @ shooting[start:start + batch]
+            received += cache.shot(part, shooting[start:start + batch], len(received))
         received *= all_reflectance
         radiosity += received
         unshot[group] = 0.0

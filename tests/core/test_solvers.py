@@ -85,3 +85,26 @@ def test_every_solver_gives_the_same_bake(method):
 def test_an_explicit_matrix_over_the_memory_budget_is_refused():
     with pytest.raises(ValueError, match=r"needs a [\d,]+ x [\d,]+ form-factor matrix .* over the memory budget"):
         bake(lit_room(), "raycast", "jacobi", memory_budget=1000)
+
+
+def test_the_column_cache_shoots_sparse_and_dense_columns_alike():
+    """Columns with at most progressive.SPARSE of their values nonzero are kept as those values,
+    the others as rows of one array: a shot from any mix of them is the dense product, and the
+    bytes held follow what each kind keeps."""
+    rng = np.random.default_rng(3)
+    size = 200
+    columns = rng.random((size, 6))
+    columns[:, :3] *= rng.random((size, 3)) < 0.1  # three sparse columns
+    cache = progressive.ColumnCache()
+    cache.most = 8
+    for q in range(6):
+        cache.add(q, columns[:, q], 1.0)
+    sparse_bytes = 12 * int((columns[:, :3] != 0).sum())
+    assert cache.nbytes == 3 * size * 8 + sparse_bytes
+    shooting = rng.random((6, 3))
+    for chosen in ([4, 0, 5, 2], [1, 2], [3, 5]):
+        np.testing.assert_allclose(cache.shot(np.array(chosen), shooting[chosen], size),
+                                   columns[:, chosen] @ shooting[chosen], rtol=1e-12, atol=0)
+    cache.remove(0)
+    cache.remove(4)
+    assert cache.nbytes == 3 * size * 8 + sparse_bytes - 12 * int((columns[:, 0] != 0).sum())  # rows stay made
