@@ -73,11 +73,12 @@ class _Kept:
     light: ArrivingLight | None = None
     patch_factors: np.ndarray | None = None
     node_factors: np.ndarray | None = None
+    node_noise: np.ndarray | None = None  # the standard error of node_factors' sampling (N, S, 3)
     level_change: float | None = None
 
     def bytes(self) -> int:
         """About what it holds beyond the scene."""
-        held = (self.patch_factors, self.node_factors, self.solver, self.near_field, self.sharp)
+        held = (self.patch_factors, self.node_factors, self.node_noise, self.solver, self.near_field, self.sharp)
         return _held_bytes(held) + _base_bytes(self.light.mesh)
 
 
@@ -146,13 +147,15 @@ class BakeSession:
         light = ArrivingLight(engine, direct, channels, kept=kept.sharp if self.keep else None)
         patch_factors = np.zeros((mesh.patch_count, direct.source_count, 3))
         node_factors = np.zeros((mesh.node_count, direct.source_count, 3))
+        node_noise = np.zeros_like(node_factors)
         if has_direct:
-            patch_factors, node_factors = stages.run("direct light", span["direct"], _direct_light, light,
-                                                     timer="direct_light")
+            patch_factors, node_factors, node_noise = stages.run("direct light", span["direct"], _direct_light, light,
+                                                                 timer="direct_light")
         node_direct = light.combined(node_factors)
         with stages.within(span["solve"]):
             solution = solve(light, patch_factors, node_direct, settings, stages, kept.solver)
         kept.light, kept.patch_factors, kept.node_factors = solution.light, solution.patch_factors, node_factors
+        kept.node_noise = node_noise
         kept.level_change = solution.level_change
         result = self._finish(scene, settings, panels, solution, node_direct, kept, stages, span)
         if self.keep:
@@ -193,7 +196,8 @@ class BakeSession:
             scene, mesh, radiosity, node_lighting, None if panels is None else panels.triangle_panel),
             timer="reconstruct")
         error = estimate.of_bake(mesh, mesh.node_radiosity(node_lighting), radiosity, light.engine.receiving_points,
-                                 self.method, solution.stats, solution.level_change, solution.noise, near_errors)
+                                 self.method, solution.stats, solution.level_change, solution.noise, near_errors,
+                                 light.combined(kept.node_noise))
         stages.done()
         stats = {
             "method": self.method,
@@ -225,12 +229,13 @@ def _spans(settings: BakeSettings, has_direct: bool, first: bool) -> dict:
                   and (first or name not in ("discretise", "rays", "direct"))})
 
 
-def _direct_light(light: ArrivingLight, report) -> tuple[np.ndarray, np.ndarray]:
+def _direct_light(light: ArrivingLight, report) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The lights' and the sky's light per source and unit of its intensity (``DirectLighting``),
-    averaged over each patch (P, S, 3) and at each node (N, S, 3)."""
+    averaged over each patch (P, S, 3) and at each node (N, S, 3), and the standard error of its
+    sampling at each node (N, S, 3)."""
     mesh = light.mesh
     return (light.factors_on_patches(None, lambda f: report(f / 2)),
-            light.direct.factors_at(mesh.node_points, mesh.node_normals, lambda f: report(0.5 + f / 2)))
+            *light.direct.sampled_factors_at(mesh.node_points, mesh.node_normals, lambda f: report(0.5 + f / 2)))
 
 
 def _direct_at_corners(light: ArrivingLight, node_direct: np.ndarray, node_lighting: np.ndarray,

@@ -1,6 +1,7 @@
 """How far a bake's corner colours may be from the converged answer: the light not yet
 distributed (or, where Monte Carlo carried it, the final gather's noise: ``monte_carlo_error``),
-plus the error of representing radiosity as constant over each patch.
+plus the error of representing radiosity as constant over each patch, plus the noise of the sky's
+directions at the nodes that see part of it (the spread of their rotations).
 
 Errors are relative RMS over the receiver nodes that emit nothing, all channels:
 sqrt(mean |c - c*|^2) / mean |c*| (the NRMSE the benchmarks measure, docs/results/tradeoffs.md).
@@ -101,12 +102,14 @@ def corner_patch_gap(mesh: Discretization, colors: np.ndarray, radiosity: np.nda
 
 def of_bake(mesh: Discretization, colors: np.ndarray, radiosity: np.ndarray, receiving_points: np.ndarray,
             method: str, solve_stats: dict, level_change: float | None, noise: np.ndarray | None,
-            near_errors: np.ndarray | None) -> dict:
-    """{"unshot", "discretisation", "total"}: the estimate of a bake whose node colours are
-    ``colors`` (N, C) over patches of ``radiosity`` (P, C), as the module docstring says: the
-    solver's part from ``solve_stats`` (or the Monte Carlo ``noise`` (N, C) of the nodes'
-    lighting), the discretisation's from the near field's ``near_errors`` (N, C; ray casting), the
-    last refinement level's ``level_change``, or the corner-patch gap."""
+            near_errors: np.ndarray | None, direct_noise: np.ndarray | None = None) -> dict:
+    """{"unshot", "discretisation", "direct_sampling", "total"}: the estimate of a bake whose node
+    colours are ``colors`` (N, C) over patches of ``radiosity`` (P, C), as the module docstring
+    says: the solver's part from ``solve_stats`` (or the Monte Carlo ``noise`` (N, C) of the
+    nodes' lighting), the discretisation's from the near field's ``near_errors`` (N, C; ray
+    casting), the last refinement level's ``level_change``, or the corner-patch gap; and the
+    sampling's of the sky at the nodes, from its standard error ``direct_noise`` (N, C) there
+    (``DirectLighting.sampled_factors_at``)."""
     change = level_change
     if near_errors is not None and method == "raycast":  # tighter than the level change
         change = near_field_error(mesh, colors, near_errors)
@@ -118,4 +121,7 @@ def of_bake(mesh: Discretization, colors: np.ndarray, radiosity: np.ndarray, rec
         left = solver_error(mesh, radiosity, solve_stats)
     else:  # the light not shot is distributed, up to the final gather's noise
         left = monte_carlo_error(mesh, colors, mesh.node_reflectance[:, : colors.shape[1]] * noise)
-    return {"unshot": left, "discretisation": change, "total": max(left + change, ROUNDING_FLOOR)}
+    sampling = 0.0 if direct_noise is None else relative_rms(mesh.node_reflectance[:, : colors.shape[1]] * direct_noise,
+                                                             colors, ~mesh.node_emission.any(axis=1))
+    return {"unshot": left, "discretisation": change, "direct_sampling": sampling,
+            "total": max(left + change + sampling, ROUNDING_FLOOR)}
