@@ -73,7 +73,7 @@ class _Kept:
     light: ArrivingLight | None = None
     patch_factors: np.ndarray | None = None
     node_factors: np.ndarray | None = None
-    node_noise: np.ndarray | None = None  # the standard error of node_factors' sampling (N, S, 3)
+    node_noise: np.ndarray | None = None  # the standard error of the sky's in node_factors (N, S - lights, 3)
     level_change: float | None = None
 
     def bytes(self) -> int:
@@ -147,7 +147,7 @@ class BakeSession:
         light = ArrivingLight(engine, direct, channels, kept=kept.sharp if self.keep else None)
         patch_factors = np.zeros((mesh.patch_count, direct.source_count, 3))
         node_factors = np.zeros((mesh.node_count, direct.source_count, 3))
-        node_noise = np.zeros_like(node_factors)
+        node_noise = np.zeros((mesh.node_count, direct.source_count - len(direct.lights), 3))
         if has_direct:
             patch_factors, node_factors, node_noise = stages.run("direct light", span["direct"], _direct_light, light,
                                                                  timer="direct_light")
@@ -197,7 +197,7 @@ class BakeSession:
             timer="reconstruct")
         error = estimate.of_bake(mesh, mesh.node_radiosity(node_lighting), radiosity, light.engine.receiving_points,
                                  self.method, solution.stats, solution.level_change, solution.noise, near_errors,
-                                 light.combined(kept.node_noise))
+                                 _sampling_noise(light, kept.node_noise))
         stages.done()
         stats = {
             "method": self.method,
@@ -231,11 +231,18 @@ def _spans(settings: BakeSettings, has_direct: bool, first: bool) -> dict:
 
 def _direct_light(light: ArrivingLight, report) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The lights' and the sky's light per source and unit of its intensity (``DirectLighting``),
-    averaged over each patch (P, S, 3) and at each node (N, S, 3), and the standard error of its
-    sampling at each node (N, S, 3)."""
+    averaged over each patch (P, S, 3) and at each node (N, S, 3), and the standard error of the
+    sky's and the environment's sampling at each node (N, S - L, 3), L the lights."""
     mesh = light.mesh
     return (light.factors_on_patches(None, lambda f: report(f / 2)),
             *light.direct.sampled_factors_at(mesh.node_points, mesh.node_normals, lambda f: report(0.5 + f / 2)))
+
+
+def _sampling_noise(light: ArrivingLight, noise: np.ndarray) -> np.ndarray:
+    """(N, C) the standard error of the nodes' light from the sky and the environment, from its
+    per unit of each (N, S - L, 3), after the L lights (``DirectLighting.sampled_factors_at``)."""
+    lights = len(light.direct.lights)
+    return light.direct.combine(noise, light.intensities[lights:])[:, : light.channels]
 
 
 def _direct_at_corners(light: ArrivingLight, node_direct: np.ndarray, node_lighting: np.ndarray,

@@ -174,7 +174,7 @@ AUTO_PATCH_DIVISIONS = 8
 # nodes, Monte Carlo's Auto carries the light left after the emitters' shots with
 # LARGE_SCENE_MONTE_CARLO_RAYS gather rays: progressive refinement needs a few shots per patch to
 # converge, and a shot costs a form factor at every patch and node. The Cornell box tiled 2 x 2
-# (2.2e7) shoots to the tolerance in 13 s, 4 x 4 (3.5e8) in 511 s, where Monte Carlo takes 7 s
+# (2.2e7) shoots to the tolerance in 13 s, 4 x 4 (3.5e8) in 511 s, where Monte Carlo takes 5-7 s
 # (docs/results/growth.md); the sample Cornell box is about 1e6.
 LARGE_SCENE_SHOOTING = 50_000_000
 LARGE_SCENE_MONTE_CARLO_RAYS = 64

@@ -22,10 +22,9 @@ SPARSE = 0.25
 class ColumnCache:
     """Form-factor columns F[:, q] (n values each) with the share of each q's light that lands on
     a patch, iterated oldest first. A column with more than SPARSE of its values nonzero is a row
-    of one array, so that a group's columns come out in one gather (the array is made for
-    ``most`` rows at once: its pages are touched, and take memory, as rows are written); one with
-    fewer (a shot that reached its room alone, ``transport.reach``) keeps its nonzero values and
-    their indices."""
+    of one array, so that a group's columns come out in one gather (the array grows by doubling
+    up to ``most`` rows); one with fewer (a shot that reached its room alone, ``transport.reach``)
+    keeps its nonzero values and their indices."""
 
     def __init__(self) -> None:
         self.most = 1 << 62
@@ -63,7 +62,7 @@ class ColumnCache:
         else:
             slot, self._used = self._used, self._used + 1
             if self._rows is None or slot >= len(self._rows):
-                rows = np.empty((max(self.most, slot + 1), len(column)))
+                rows = np.empty((min(max(16, 2 * slot), max(self.most, slot + 1)), len(column)))
                 if self._rows is not None:
                     rows[:slot] = self._rows[:slot]
                 self._rows = rows

@@ -47,14 +47,10 @@ POINTS_PER_BLOCK = 1024
 # its light: a few hundred directions keep a small window's blotches to a few percent of it.
 SKY_RAYS_PER_RAY = 16
 # A point (not a patch) that sees part of the sky takes the mean of this many rotations of its
-# directions: through a window with mullions, one rotation of 256 directions spread by 8 % of the
-# light (docs/notes/experiments.md, "The breakfast room").
-PARTLY_OPEN_PASSES = 4
-# A point whose share of open sky those rotations give to a standard error above NOISY_SKY takes
-# NOISY_SKY_PASSES rotations in all (the breakfast room: 20.6 -> 18.4 % from path tracing for 11 s
-# more; 32 rotations: 17.7 %, 20 s more).
-NOISY_SKY = 0.002
-NOISY_SKY_PASSES = 16
+# directions, and their spread gives its standard error: through a window with mullions, one
+# rotation of 256 directions spread by 8 % of the light (docs/notes/experiments.md, "The sky's
+# sampling noise").
+PARTLY_OPEN_PASSES = 16
 # The pieces that splitting the area lights (``discretize.light_divisions``) may add, all lights together:
 # each piece costs its rays at every point.
 MAX_ADDED_LIGHT_PIECES = 256
@@ -120,9 +116,13 @@ class DirectLighting:
 
     def sampled_factors_at(self, points: np.ndarray, normals: np.ndarray,
                            report: Callable[[float], None]) -> tuple[np.ndarray, np.ndarray]:
-        """``factors_at``'s (m, S, 3), and the standard error (m, S, 3) of their sampling of the
-        sky where a point sees part of it: the spread of the rotations it averages over the root
-        of their number (zero where all its directions agree, and for the lights)."""
+        """``factors_at``'s (m, S, 3), and the standard error (m, S - L, 3) of the sky's and the
+        environment's (after the L lights) where a point sees part of the sky: the spread of the
+        PARTLY_OPEN_PASSES rotations it averages over the root of their number (zero where all its
+        directions agree)."""
+        if self.source_count == 0 or len(points) == 0:
+            return np.zeros((len(points), self.source_count, 3)), np.zeros((len(points), self.source_count
+                                                                           - len(self.lights), 3))
         return self._in_blocks(points, normals, self._point_block, report, outputs=2)
 
     def light_factors_at(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
@@ -147,10 +147,9 @@ class DirectLighting:
 
     def _in_blocks(self, items, normals, block, report, outputs: int = 1):
         """``block(items, normals, first)`` over blocks of POINTS_PER_BLOCK items, joined: an
-        array (m, S, 3), or a tuple of ``outputs`` of them."""
+        array (m, S, 3), or a tuple of ``outputs`` arrays (for at least one item)."""
         if self.source_count == 0 or len(items) == 0:
-            empty = tuple(np.zeros((len(items), self.source_count, 3)) for _ in range(outputs))
-            return empty if outputs > 1 else empty[0]
+            return np.zeros((len(items), self.source_count, 3))
         starts = range(0, len(items), POINTS_PER_BLOCK)
         parts = []
         for done, part in enumerate(parallel.map_ordered(
@@ -162,7 +161,7 @@ class DirectLighting:
 
     def _point_block(self, points, normals, first) -> tuple[np.ndarray, np.ndarray]:
         smooth, noise = self._smooth(points, normals, first, PARTLY_OPEN_PASSES)
-        return self._sharp(points, normals, first) + smooth, noise
+        return self._sharp(points, normals, first) + smooth, noise[:, len(self.lights):]
 
     def _patch_block(self, corners, normals, first) -> np.ndarray:
         samples = stratified_samples(corners, self.rays, self.seed + first)  # (k, S, 3)
@@ -237,9 +236,8 @@ class DirectLighting:
 
     def _smooth(self, points, normals, first, passes: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """(m, S, 3) area lights and the sky; where a point sees part of the sky, the mean of
-        ``passes`` rotations of its directions (``_open_sky``), NOISY_SKY_PASSES where they
-        disagree most; and (m, S, 3) the standard error of that mean, from the rotations' spread
-        (zero elsewhere)."""
+        ``passes`` rotations of its directions (``_open_sky``); and (m, S, 3) the standard error
+        of that mean, from the rotations' spread (zero elsewhere)."""
         result = self._area_lights(points, normals)
         noise = np.zeros_like(result)
         if self.sky.any() or self.environment is not None:
@@ -247,31 +245,17 @@ class DirectLighting:
             sky = self._sky(directions, open_sky)
             partly = np.flatnonzero((open_sky > 0).any(axis=1) & (open_sky < 1).any(axis=1))
             if passes > 1 and len(partly):
-                rotations, shares = self._rotations(points[partly], normals[partly], first, range(1, passes))
-                rotations = np.concatenate([sky[None, partly], rotations])
-                shares = np.concatenate([open_sky[None, partly].mean(axis=2), shares])
-                # the points whose share of open sky (the geometry alone, whatever the sky's colour
-                # or the environment's strength) the rotations spread most take more of them
-                noisy = np.flatnonzero(shares.std(axis=0, ddof=1) / math.sqrt(passes) > NOISY_SKY)
-                sky[partly], noise[partly] = rotations.mean(axis=0), rotations.std(axis=0, ddof=1) / math.sqrt(passes)
-                if len(noisy) and NOISY_SKY_PASSES > passes:
-                    chosen = partly[noisy]
-                    more = self._rotations(points[chosen], normals[chosen], first, range(passes, NOISY_SKY_PASSES))[0]
-                    rotations = np.concatenate([rotations[:, noisy], more])
-                    sky[chosen] = rotations.mean(axis=0)
-                    noise[chosen] = rotations.std(axis=0, ddof=1) / math.sqrt(NOISY_SKY_PASSES)
+                rotations = np.concatenate([sky[None, partly],
+                                            self._rotations(points[partly], normals[partly], first, range(1, passes))])
+                sky[partly] = rotations.mean(axis=0)
+                noise[partly] = rotations.std(axis=0, ddof=1) / math.sqrt(passes)
             result += sky
         return result, noise
 
-    def _rotations(self, points, normals, first, attempts: range) -> tuple[np.ndarray, np.ndarray]:
-        """The sky's light (r, m, S, 3) at points from each of the rotations ``attempts`` of their
-        directions (``_open_sky``), and the share of those directions open (r, m)."""
-        rotations, shares = [], []
-        for attempt in attempts:
-            directions, open_sky = self._open_sky(points, normals, first, attempt)
-            rotations.append(self._sky(directions, open_sky))
-            shares.append(open_sky.mean(axis=1))
-        return np.stack(rotations), np.stack(shares)
+    def _rotations(self, points, normals, first, attempts: range) -> np.ndarray:
+        """(r, m, S, 3) the sky's light at points from each of the rotations ``attempts`` of their
+        directions (``_open_sky``)."""
+        return np.stack([self._sky(*self._open_sky(points, normals, first, attempt)) for attempt in attempts])
 
     def _sky(self, directions: np.ndarray, open_sky: np.ndarray) -> np.ndarray:
         """(m, S, 3) the sky and the environment per unit, from the cosine-distributed

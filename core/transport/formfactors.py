@@ -13,7 +13,7 @@ from ..rays.visibility import Visibility
 from ..scene import Scene
 from ..settings import METHODS
 from ..util import parallel, spatial
-from ..util.progress import Report, quiet
+from ..util.progress import Report, heartbeat, quiet
 from . import hemicube, raycast, reach, receivers
 
 # Rays and point-patch pairs per block: about 0.03 s of work on one core, so that progress is
@@ -27,6 +27,8 @@ REACH_RECEIVERS = 10_000
 # A box that may hold more than this share of the receivers is not worth the search: the shot
 # evaluates them all by matrix products instead.
 REACH_SHARE = 0.5
+# Sources whose reach boxes are found at once (about 90 kB each while their rays are traced).
+REACH_BLOCK = 1024
 # Pixels across the hemicube that measures how much of a shooter's light lands on patches.
 CAPTURE_RESOLUTION = 8
 
@@ -107,7 +109,7 @@ class FormFactorEngine:
             return emitters, factors
         bounded = np.zeros(len(emitters), dtype=bool)
         if len(self._shot_receivers[0]) >= REACH_RECEIVERS:  # as a shot would: in their boxes (``reach``)
-            low, high = self._emitter_reach
+            low, high = self._reach_of(emitters)
             bounded = self._few_inside(low, high)
         unbounded = np.flatnonzero(~bounded)
         receivers = np.repeat(np.arange(len(points)), len(unbounded))
@@ -130,13 +132,20 @@ class FormFactorEngine:
         return spatial.points_in_boxes(points, low, high, lambda receivers, chosen: self._point_raycaster.faces(
             points[receivers], normals[receivers], sources[chosen]))
 
-    @cached_property
-    def _emitter_reach(self) -> tuple[np.ndarray, np.ndarray]:
-        """``reach.reach_boxes`` of the emitting patches."""
-        mesh = self.mesh
-        emitters = np.flatnonzero(mesh.patch_emission.any(axis=1))
-        return reach.reach_boxes(mesh.patch_corners[emitters], mesh.patch_normals[emitters], emitters,
-                                 self.visibility, self._ray_settings[1])
+    def _reach_of(self, patches: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``reach.reach_boxes`` of ``patches`` (k,), kept for the last patches asked about (the
+        emitters: an engine ``with_surfaces`` shares them while they stay the same)."""
+        kept = self.__dict__.get("_reach_kept")
+        if kept is None or not np.array_equal(kept[0], patches):
+            mesh, boxes = self.mesh, []
+            for start in range(0, len(patches), REACH_BLOCK):
+                heartbeat()
+                chosen = patches[start:start + REACH_BLOCK]
+                boxes.append(reach.reach_boxes(mesh.patch_corners[chosen], mesh.patch_normals[chosen], chosen,
+                                               self.visibility, self._ray_settings[1]))
+            kept = (patches.copy(), *(np.concatenate(corners) for corners in zip(*boxes)))
+            self.__dict__["_reach_kept"] = kept
+        return kept[1], kept[2]
 
     @cached_property
     def _point_raycaster(self) -> raycast.RayCaster:
@@ -244,7 +253,8 @@ class FormFactorEngine:
         the share of each q's light that lands on a patch (k,): 1 in a closed scene.
 
         Ray casting evaluates the columns directly at every patch centroid and every node
-        ((P + N, k) values), and measures the share with a small hemicube (CAPTURE_RESOLUTION)
+        ((P + N, k) values; from REACH_RECEIVERS on, only those in the box the source's own rays
+        reach, ``reach``: the others are 0), and measures the share with a small hemicube (CAPTURE_RESOLUTION)
         at the source; the hemicube sees from each source and uses reciprocity,
         F[p, q] = A_q F[q, p] / A_p (Cohen et al. 1988), for the patches only ((P, k) values),
         and its row sum is the share.
@@ -262,7 +272,7 @@ class FormFactorEngine:
         bounded = np.zeros(len(sources), dtype=bool)
         if len(points) >= REACH_RECEIVERS:
             low, high = reach.reach_boxes(mesh.patch_corners[sources], mesh.patch_normals[sources], sources,
-                                          self.visibility, self._ray_settings[1])
+                                          self.visibility, self._ray_settings[1])  # (at most a batch of shots)
             bounded = self._few_inside(low, high)
         unbounded = np.flatnonzero(~bounded)
         if len(unbounded):
