@@ -158,3 +158,17 @@ def test_a_resolve_with_an_emitter_turned_off_equals_a_fresh_bake(monkeypatch):
     # (tests/core/test_session.py, NEW_SAMPLES): 9.8e-5 of the largest colour, with boxes or without
     np.testing.assert_allclose(again.corner_colors, fresh.corner_colors, rtol=0,
                                atol=2e-4 * np.abs(fresh.corner_colors).max())
+
+
+def test_a_box_that_may_hold_most_receivers_is_not_searched():
+    """``_few_inside``: a box around one room of two may hold at most REACH_SHARE of the
+    receivers and is searched; one around both rooms, or an unbounded one (a source whose rays
+    met a surface that lets light through), is not: the shot takes every receiver."""
+    mesh, _ = discretised(two_rooms(), 0.1, math.radians(30), True)
+    engine = FormFactorEngine(mesh, "raycast", 64, 16, 0, probing=True)
+    points = engine._shot_receivers[0]
+    first_room = points[:, 0] < 0.9
+    assert 0.2 < first_room.mean() <= formfactors.REACH_SHARE
+    low = np.array([[-0.1, -0.1, -0.1], [-0.1, -0.1, -0.1], [-np.inf] * 3])
+    high = np.array([[0.9, 1.1, 1.1], [2.1, 1.1, 1.1], [np.inf] * 3])
+    np.testing.assert_array_equal(engine._few_inside(low, high), [True, False, False])
