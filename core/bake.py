@@ -22,7 +22,7 @@ from .solve.levels import Solution, solve
 from .transport.arriving import ArrivingLight
 from .transport.direct import DirectLighting
 from .transport.formfactors import FormFactorEngine
-from .util.progress import ProgressCallback, Stages, spans
+from .util.progress import ProgressCallback, Stages, relayed, spans
 
 # Each stage's share of the progress bar: about what it takes of a typical bake.
 SHARES = {"discretise": 2, "rays": 2, "direct": 6, "solve": 87, "near field": 3, "split": 2, "corners": 0}
@@ -122,7 +122,11 @@ class BakeSession:
 
     def bake(self, scene: Scene, progress: ProgressCallback | None = None) -> BakeResult:
         """``core.bake``'s result for ``scene``, re-solved when only its colours changed since
-        this session's last bake afresh (then ``stats["resolved"]`` is True)."""
+        this session's last bake afresh (then ``stats["resolved"]`` is True). The bake runs on a
+        worker thread; ``progress`` is called from this one (``progress.relayed``)."""
+        return relayed(lambda report: self._baked(scene, report), progress)
+
+    def _baked(self, scene: Scene, progress: ProgressCallback | None) -> BakeResult:
         if self.change(scene) is None:
             return self._resolve(scene, progress)
         self._kept = None  # nothing stale is held while the new bake runs

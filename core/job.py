@@ -1,11 +1,11 @@
 """A bake that runs in slices, for hosts that must stay responsive (Blender's modal operators):
 ``step(budget)`` lets the bake work for about ``budget`` seconds and returns.
 
-The bake runs on a worker thread that pauses at its next progress report once the slice's
-budget is spent, and waits there for the next ``step``; so the bake never runs while the host
-does, and the host sees progress, can cancel, and takes the result, all from its own thread.
-A slice ends at the first progress report after the budget (reports come every REPORT_INTERVAL
-seconds while the bake works).
+The bake's reports come to a thread that pauses at the first report after the slice's budget
+is spent and waits there for the next ``step``; so the host sees progress, can cancel, and takes
+the result, all from its own thread. Reports come every REPORT_INTERVAL seconds while the bake
+works, even inside one long step (``progress.relayed``: the bake's own work runs on a worker
+thread of its own, and goes on while the host runs; it touches no host data).
 """
 
 from __future__ import annotations

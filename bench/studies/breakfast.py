@@ -80,8 +80,8 @@ def report(baked: dict, wall: float, peak: int, answer, header: dict, minutes: f
          f"<= {PROMISED_GAP:g} s", verdict(baked["longest_gap"] <= PROMISED_GAP)],
     ]
     about = (f"Options: `--corners N` (default {CORNERS:,}), `--paths N` (default {PATHS:,}), `--quick`. "
-             f"The core reports every {REPORT_INTERVAL:g} s where a stage can tell its progress, and at least "
-             "between the thread pool's blocks elsewhere (`progress.heartbeat`).")
+             f"The bake works on a thread of its own and its caller's thread passes on what it last reported "
+             f"every {REPORT_INTERVAL:g} s, also inside one long step (`progress.relayed`).")
     return "\n".join([
         *markdown.opening("The breakfast room under a sky", STUDY, "--quick" if quick else "", minutes, quick, about,
                           header),

@@ -29,6 +29,7 @@ from ..scene import Scene
 from ..util import spatial
 from ..util.geometry import areas_and_normals, barycentric, longest_edges, triangle_corners
 from ..util.overlaps import PARALLEL
+from ..util.rows import sorted_labels
 from .topology import connected_components, degenerate, weld_corners
 
 # A collapse keeps the vertex it removes within this fraction of each changed triangle's longest
@@ -86,8 +87,7 @@ def panels(scene: Scene, panel_size: float,
     weld = weld_corners(corners, scene.extent)
     region = _regions(scene, normals, weld, zero_area)
     # vertices are per region: regions decimate independently
-    vertex_key, local = np.unique(np.stack([np.repeat(region, 3), weld.ravel()], axis=1), axis=0,
-                                  return_inverse=True)
+    vertex_key, local = sorted_labels(np.stack([np.repeat(region, 3), weld.ravel()], axis=1))
     local = local.reshape(-1, 3)
     positions = np.zeros((len(vertex_key), 3))
     positions[local.ravel()] = corners.reshape(-1, 3)
@@ -150,7 +150,7 @@ def _regions(scene: Scene, normals, weld, zero_area) -> np.ndarray:
     surface = np.concatenate([scene.reflectance, scene.emission, scene.material[:, None],
                               scene.two_sided[:, None], scene.casts_shadows[:, None], scene.opacity[:, None]],
                              axis=1)
-    surface_id = np.unique(surface, axis=0, return_inverse=True)[1].ravel()
+    surface_id = sorted_labels(surface)[1]
     surface_id[zero_area] = surface_id.max() + 1 + np.arange(zero_area.sum())
     triangle = np.tile(np.arange(count), 3)
     ends = np.concatenate([weld[:, [0, 1]], weld[:, [1, 2]], weld[:, [2, 0]]])

@@ -17,6 +17,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..util.geometry import area_vectors
+from ..util.rows import sorted_labels
 from .discretize import Discretization
 
 # Patch corners closer than this fraction of the largest patch edge are one corner.
@@ -84,7 +85,7 @@ def _welded_corners(corners: np.ndarray) -> np.ndarray:
     points = corners.reshape(-1, 3)
     step = max(float(np.ptp(points, axis=0).max()), np.finfo(float).tiny) * WELD_FRACTION
     keys = np.round((points - points.min(axis=0)) / step).astype(np.int64)
-    return np.unique(keys, axis=0, return_inverse=True)[1].reshape(-1, 3)
+    return sorted_labels(keys)[1].reshape(-1, 3)
 
 
 def _patches_sharing_a_corner(vertex: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..util.geometry import areas_and_normals, longest_edges
+from ..util.rows import sorted_labels
 
 # A triangle whose area is below this fraction of its longest edge squared is treated as having
 # zero area (its normal is rounding noise). An aspect ratio of 1e4 is 1e-4, far above this.
@@ -26,7 +27,7 @@ def weld_corners(corners: np.ndarray, extent: float) -> np.ndarray:
     points = corners.reshape(-1, 3)
     step = max(extent, np.finfo(float).tiny) * WELD_TOLERANCE
     keys = np.round((points - points.min(axis=0)) / step).astype(np.int64)
-    return np.unique(keys, axis=0, return_inverse=True)[1].reshape(-1, 3)
+    return sorted_labels(keys)[1].reshape(-1, 3)
 
 
 def connected_components(count: int, pairs: np.ndarray) -> np.ndarray:

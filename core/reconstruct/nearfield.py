@@ -342,7 +342,7 @@ def _where_seen(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray) 
         if len(peaked):
             largest = np.argsort(-factors[peaked], axis=1)[:, :REFINED]  # (k, R)
             chosen = split[largest]  # (k, R, 3, 3)
-            finer = np.einsum("tcb,krbd->krtcd", split, chosen).reshape(len(peaked), -1, 3, 3)
+            finer = (split @ chosen[:, :, None]).reshape(len(peaked), -1, 3, 3)  # (k, R, S, 3, 3)
             finer_factors = _piece_form_factors(point[peaked], normal[peaked], triangle[peaked], finer)
             replaced = np.take_along_axis(factors[peaked], largest, axis=1)  # (k, R)
             moment[peaked] += np.einsum("km,kmb->kb", finer_factors, finer.mean(axis=2)) \
@@ -358,6 +358,6 @@ def _piece_form_factors(points, normals, triangles, pieces) -> np.ndarray:
     """(k, m) unoccluded form factors from each point to the m pieces (barycentric (k, m, 3, 3))
     of its triangle (k, 3, 3)."""
     count, per = pieces.shape[:2]
-    corners = np.einsum("kmcb,kbx->kmcx", pieces, triangles).reshape(-1, 3, 3)
+    corners = (pieces @ triangles[:, None]).reshape(-1, 3, 3)
     factors = point_to_triangle(np.repeat(points, per, axis=0), np.repeat(normals, per, axis=0), corners)
     return factors.reshape(count, per)

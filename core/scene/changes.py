@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 
+from ..util.rows import sorted_labels
 from .lights import source_intensities
 from .model import Scene
 
@@ -29,7 +30,7 @@ def geometry_change(first: Scene, now: Scene) -> str | None:
     if (first.corner_normals is None) != (now.corner_normals is None) or (
             first.corner_normals is not None and not _same(first.corner_normals, now.corner_normals)):
         return "the shading normals changed"
-    pairs = np.unique(np.stack([first.material, now.material], axis=1), axis=0)
+    pairs = sorted_labels(np.stack([first.material, now.material], axis=1))[0]
     if not len(pairs) == len(np.unique(first.material)) == len(np.unique(now.material)):
         return "the triangles' materials are grouped differently"
     if (now.emission.any(axis=1) & ~first.emission.any(axis=1)).any():

@@ -7,6 +7,7 @@ from functools import cached_property
 
 import numpy as np
 
+from ..util.rows import sorted_labels
 from .lights import Environment, check_lights
 
 
@@ -138,7 +139,7 @@ class Scene:
             raise ValueError(f"emission[{bad}] = {emission[bad].tolist()} is negative")
         material = self.material
         if material is None:
-            material = np.unique(np.hstack([reflectance, emission]), axis=0, return_inverse=True)[1]
+            material = sorted_labels(np.hstack([reflectance, emission]))[1]
         material = np.asarray(material)
         if material.dtype.kind not in "iu" or material.shape != (count,):
             raise ValueError(f"material must be an integer array of shape ({count},)")

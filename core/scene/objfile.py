@@ -87,7 +87,7 @@ def subdivide(scene: Scene, divisions: int) -> Scene:
     does with Subdivide before baking vertex colours, so colours can show shadows)."""
     weights, cells = barycentric_grid(divisions)
     corners = scene.vertices[scene.triangles]
-    points = np.einsum("gb,tbx->tgx", weights, corners).reshape(-1, 3)
+    points = (weights @ corners).reshape(-1, 3)
     offsets = (np.arange(len(corners)) * len(weights))[:, None, None]
     triangles = (cells[None] + offsets).reshape(-1, 3)
     repeat = len(cells)

@@ -27,7 +27,7 @@ def image_triangle_means(pixels: np.ndarray, uv: np.ndarray) -> np.ndarray:
         chosen = np.flatnonzero(divisions == n)
         weights, cells = barycentric_grid(int(n))
         centroids = weights[cells].mean(axis=1)  # (n^2, 3) barycentric centroid of each piece
-        points = np.einsum("sb,tbx->tsx", centroids, in_pixels[chosen])  # (t, n^2, 2) in pixels
+        points = centroids @ in_pixels[chosen]  # (t, n^2, 2) in pixels
         column = np.floor(points[..., 0]).astype(np.int64) % width
         row = np.floor(points[..., 1]).astype(np.int64) % height
         means[chosen] = pixels[row, column].mean(axis=1)

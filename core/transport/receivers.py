@@ -31,7 +31,7 @@ def receiving_points(mesh: Discretization, visibility: Visibility) -> np.ndarray
     unburied test point nearest the mean of its unburied test points. ``visibility`` holds the
     scene's triangles (``triangle_normals``, ``two_sided``)."""
     weights, cells = barycentric_grid(SAMPLE_DIVISIONS)
-    points = np.einsum("sb,pbx->psx", weights[cells].mean(axis=1), mesh.patch_corners)  # (P, S, 3)
+    points = weights[cells].mean(axis=1) @ mesh.patch_corners  # (P, S, 3)
     buried = _buried(points, mesh.patch_normals, visibility)
     partly = buried.any(axis=1) & ~buried.all(axis=1)
     result = mesh.patch_centroids.copy()

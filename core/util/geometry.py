@@ -73,7 +73,7 @@ def subdivide(corners: np.ndarray, divisions: int) -> np.ndarray:
     """(T * divisions**2, 3, 3): each triangle of ``corners`` (T, 3, 3) split regularly
     (``barycentric_grid``), its sub-triangles consecutive."""
     weights, cells = barycentric_grid(divisions)
-    points = np.einsum("gb,tbx->tgx", weights, corners)  # (T, G, 3)
+    points = weights @ corners  # (T, G, 3)
     return points[:, cells].reshape(-1, 3, 3)
 
 

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextvars
 import math
+import threading
 import time
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -75,6 +77,71 @@ class Progress:
 
 
 _running: ContextVar[Progress | None] = ContextVar("running", default=None)
+# Work whose caller cancelled it and heard so at once; it stops at its next report, and the next
+# relayed work waits for that (two bakes never run side by side).
+_abandoned: list[threading.Thread] = []
+
+
+class _Relay:
+    """What work on a worker thread last reported, for the caller's thread to pass on."""
+
+    def __init__(self) -> None:
+        self.fraction, self.message = 0.0, "starting"
+        self.reports = 0  # counted after the fraction and message are set
+        self.cancelled = False
+        self.news = threading.Event()  # a report not yet passed on, or the work's end
+
+    def report(self, fraction: float, message: str) -> None:
+        """The work's progress callback: raises BakeCancelled once the caller has cancelled."""
+        if self.cancelled:
+            raise BakeCancelled(f"cancelled before {message}")
+        self.fraction, self.message = fraction, message
+        self.reports += 1
+        self.news.set()
+
+
+def relayed(work: Callable[[ProgressCallback | None], Result], callback: ProgressCallback | None) -> Result:
+    """``work(report)`` on a worker thread while this thread calls ``callback(fraction, message)``
+    with what it last reported: at once when it reports, and every REPORT_INTERVAL while it is
+    inside one long step that cannot (a sort of millions of keys, a large vectorised pass: NumPy
+    and Embree release the GIL). So the caller hears at least every 0.2 s in every stage, and a
+    cancel (``callback`` returning False) raises BakeCancelled here at once; the work stops at its
+    next report, its result dropped, before the next relayed work starts."""
+    if callback is None:
+        return work(None)
+    while _abandoned:
+        _abandoned.pop().join()
+    relay, outcome = _Relay(), {}
+    context = contextvars.copy_context()
+
+    def run() -> None:
+        try:
+            outcome["result"] = context.run(work, relay.report)
+        except BaseException as error:  # raised again in the caller's thread
+            outcome["error"] = error
+        finally:
+            relay.news.set()
+
+    worker = threading.Thread(target=run, name="radiosity-work", daemon=True)
+    worker.start()
+    passed = 0  # reports passed on
+    try:
+        while worker.is_alive():
+            relay.news.wait(REPORT_INTERVAL)
+            relay.news.clear()
+            if worker.is_alive():
+                passed = relay.reports
+                if callback(relay.fraction, relay.message) is False:
+                    raise BakeCancelled(f"cancelled during {relay.message}")
+    except BaseException:  # a cancel, or an interrupt of the caller's thread
+        relay.cancelled = True
+        _abandoned.append(worker)
+        raise
+    if "error" in outcome:
+        raise outcome["error"]
+    if relay.reports != passed and callback(relay.fraction, relay.message) is False:  # the last, as "done"
+        raise BakeCancelled(f"cancelled during {relay.message}")
+    return outcome["result"]
 
 
 def heartbeat() -> None:

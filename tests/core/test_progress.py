@@ -1,4 +1,5 @@
-"""progress.heartbeat: the thread pool's waits keep a bake's caller informed and cancellable."""
+"""progress.heartbeat: the thread pool's waits keep a bake's caller informed and cancellable;
+progress.relayed: so does work inside one long step that cannot report."""
 
 import time
 
@@ -6,7 +7,7 @@ import numpy as np
 import pytest
 
 from core.util import parallel
-from core.util.progress import REPORT_INTERVAL, BakeCancelled, Stages, heartbeat
+from core.util.progress import REPORT_INTERVAL, BakeCancelled, Stages, heartbeat, relayed
 
 BLOCK_SECONDS = 0.35  # each block of work: longer than the 0.2 s promise
 
@@ -66,3 +67,56 @@ def test_outside_a_bake_and_on_the_pool_a_heartbeat_is_silent():
 
     Stages(stop_at_the_second_call).run("outer", (0.0, 1.0), lambda report: parallel.submit(on_the_pool).result())
     assert calls == ["outer"]
+
+
+LONG_STEP = 0.6  # s: one step of the work that cannot report (three times the 0.2 s promise)
+
+
+def test_relayed_work_is_heard_while_it_is_inside_one_long_step():
+    """The work reports, then sleeps 0.6 s in one call (as a sort of millions of keys would, the
+    GIL released): its caller still hears every 0.2 s at most, with what it last reported, and gets
+    its result."""
+    calls = []
+
+    def work(report):
+        report(0.5, "before the long step")
+        time.sleep(LONG_STEP)
+        report(1.0, "done")
+        return "result"
+
+    assert relayed(work, lambda fraction, message: calls.append((time.perf_counter(), fraction, message))) == "result"
+    times = [when for when, _, _ in calls]
+    assert times[-1] - times[0] >= LONG_STEP * 0.9
+    assert np.diff(times).max() <= 0.2
+    assert calls[-1][1:] == (1.0, "done")
+    assert {(fraction, message) for _, fraction, message in calls[:-1]} <= {(0.0, "starting"), (0.5, "before the long step")}
+
+
+def test_a_cancel_during_a_long_step_is_heard_at_once_and_the_work_stops_at_its_next_report():
+    """The caller cancels 0.2 s into a 0.6 s step: BakeCancelled reaches it within a report
+    interval, the work never goes past its next report, and the next relayed work starts only
+    after it has stopped."""
+    events = []
+
+    def work(report):
+        report(0.1, "before")
+        time.sleep(LONG_STEP)
+        events.append("reported after the step")
+        report(0.9, "after")
+        events.append("went on after a cancel")
+
+    started = time.perf_counter()
+    with pytest.raises(BakeCancelled):
+        relayed(work, lambda fraction, message: time.perf_counter() - started < 0.2)
+    assert time.perf_counter() - started <= 0.2 + 2 * REPORT_INTERVAL
+    assert events == []
+    relayed(lambda report: events.append("the next work"), lambda fraction, message: True)
+    assert events == ["reported after the step", "the next work"]
+
+
+def test_an_error_of_relayed_work_reaches_the_caller():
+    def work(report):
+        raise MemoryError("too large")
+
+    with pytest.raises(MemoryError, match="too large"):
+        relayed(work, lambda fraction, message: True)

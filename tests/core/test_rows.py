@@ -1,4 +1,4 @@
-"""rows.labels against np.unique's labelling of equal rows."""
+"""rows.labels and rows.sorted_labels against np.unique's labelling of equal rows."""
 
 import numpy as np
 import pytest
@@ -34,7 +34,32 @@ def test_a_hash_collision_falls_back_to_the_exact_labels(monkeypatch):
     assert same_partition(rows.labels(values), np.array([0, 0, 1, 2]))
 
 
+@pytest.mark.parametrize("case", ["small integers", "signed floats", "wide integers", "full int64", "two wide columns",
+                                  "booleans",
+                                  "one column", "many columns", "empty"])
+def test_sorted_labels_are_np_unique_s(case):
+    """The distinct rows and the labels, exactly as np.unique(axis=0) gives them: integers folded
+    into one key (wide ones ranked before the key would overflow), floats ranked (signed zeros
+    alike), and the degenerate shapes."""
+    rng = np.random.default_rng(7)
+    values = {"small integers": rng.integers(-5, 5, (3_000, 3)),
+              "signed floats": rng.integers(0, 3, (3_000, 4)) * np.where(rng.random((3_000, 4)) < 0.5, -1.0, 1.0),
+              "wide integers": rng.integers(0, 10**9, (3_000, 3)) // 1000 * 1000,
+              "full int64": rng.integers(-2**63, 2**63 - 1, (500, 2), dtype=np.int64),
+              "two wide columns": rng.integers(0, 2**61, (500, 2), dtype=np.int64),
+              "booleans": rng.random((300, 3)) < 0.5,
+              "one column": rng.random((100, 1)).round(1),
+              "many columns": rng.integers(0, 2, (200, 70)),
+              "empty": np.zeros((0, 3))}[case]
+    distinct, labels = rows.sorted_labels(values)
+    expected_distinct, expected_labels = np.unique(values, axis=0, return_inverse=True)
+    np.testing.assert_array_equal(distinct, expected_distinct)
+    np.testing.assert_array_equal(labels, expected_labels.reshape(-1))
+
+
 def test_bad_shapes_are_refused_and_empty_input_is_empty():
     with pytest.raises(ValueError, match="rows must be"):
         rows.labels(np.zeros(5))
+    with pytest.raises(ValueError, match="rows must be"):
+        rows.sorted_labels(np.zeros(5))
     assert rows.labels(np.zeros((0, 3))).shape == (0,)
