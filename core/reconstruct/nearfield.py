@@ -286,22 +286,42 @@ def _near_pairs(points: np.ndarray, normals: np.ndarray, sizes: np.ndarray, mesh
     corners = mesh.patch_corners[candidates]
     pad = NEAR_REACH * np.minimum(edges[candidates], np.median(edges))[:, None]
 
+    point_axes = [np.ascontiguousarray(points[:, axis]) for axis in range(3)]
+    centroid_axes = [np.ascontiguousarray(mesh.patch_centroids[candidates, axis]) for axis in range(3)]
+    reach2 = (NEAR_REACH * edges[candidates]) ** 2
+
     def may_see(receivers: np.ndarray, chosen: np.ndarray) -> np.ndarray:
         # close enough; and the patch neither on nor behind the point's tangent plane (its own
         # surface, most of them) nor turning its back to the point: F = 0 without casting a ray
-        patches = candidates[chosen]
-        offset = points[receivers] - mesh.patch_centroids[patches]
-        result = np.einsum("kx,kx->k", offset, offset) < (NEAR_REACH * edges[patches]) ** 2
+        distance2 = sum((point_axis[receivers] - centroid_axis[chosen]) ** 2
+                        for point_axis, centroid_axis in zip(point_axes, centroid_axes))
+        result = distance2 < reach2[chosen]
         close = np.flatnonzero(result)
-        receivers, patches, offset, edge = receivers[close], patches[close], offset[close], edges[patches[close]]
-        heights = np.einsum("kcx,kx->kc", mesh.patch_corners[patches] - points[receivers][:, None], normals[receivers])
-        height = np.einsum("kx,kx->k", offset, mesh.patch_normals[patches])
-        pressed = (np.einsum("kx,kx->k", normals[receivers], mesh.patch_normals[patches]) < -np.cos(PRESSED_ANGLE)) \
-            & (height < sizes[receivers])
-        result[close] = (height > -HORIZON * edge) & (heights.max(axis=1) > HORIZON * edge) & ~pressed
+        receivers, patches = receivers[close], candidates[chosen[close]]
+        offset, edge = points[receivers] - mesh.patch_centroids[patches], edges[patches]
+        normal, patch_normal = normals[receivers], mesh.patch_normals[patches]
+        height = np.einsum("kx,kx->k", offset, patch_normal)
+        cosine = np.einsum("kx,kx->k", normal, patch_normal)
+        pressed = (cosine < -np.cos(PRESSED_ANGLE)) & (height < sizes[receivers])
+        # the patch's corners rise at most edge x sin(angle between the normals) above its centroid
+        # over the point's plane: most candidates (the point's own surface) fail without them. The
+        # sine from 1 - cos^2 is off by up to 1.5e-8 where the normals are almost parallel (and the
+        # corners lie off the patch's plane by rounding, below HORIZON x edge): 2e-8 more covers both.
+        sine = np.sqrt(np.maximum(1.0 - cosine ** 2, 0.0)) + 2e-8
+        highest = sine * edge - np.einsum("kx,kx->k", offset, normal)
+        maybe = np.flatnonzero((height > -HORIZON * edge) & (highest > 0.0) & ~pressed)
+        corners_above = np.einsum("kcx,kx->kc", mesh.patch_corners[patches[maybe]] - points[receivers[maybe]][:, None],
+                                  normal[maybe])
+        result[close] = False
+        result[close[maybe]] = corners_above.max(axis=1) > HORIZON * edge[maybe]
         return result
 
-    receivers, chosen = spatial.points_in_boxes(points, corners.min(axis=1) - pad, corners.max(axis=1) + pad, may_see)
+    # the boxes within reach of each patch: its box grown by the pad, and its centroid's sphere's
+    reach = np.sqrt(reach2)[:, None]
+    centroids = mesh.patch_centroids[candidates]
+    low = np.maximum(corners.min(axis=1) - pad, centroids - reach)
+    high = np.minimum(corners.max(axis=1) + pad, centroids + reach)
+    receivers, chosen = spatial.points_in_boxes(points, low, high, may_see)
     patches = candidates[chosen]
     parts = parallel.map_ordered(
         lambda start: form_factors(points, normals, receivers[start:start + RAY_PAIRS_PER_BLOCK],

@@ -80,9 +80,14 @@ def points_in_boxes(points: np.ndarray, low: np.ndarray, high: np.ndarray,
         return empty, empty
     everything = np.arange(len(points))
 
+    by_axis = [(np.ascontiguousarray(points[:, axis]), np.ascontiguousarray(low[:, axis]),
+                np.ascontiguousarray(high[:, axis])) for axis in range(3)]
+
     def accept(first: np.ndarray, second: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        inside = ((low[second] <= points[first]) & (points[first] <= high[second])).all(axis=1)
-        first, second = first[inside], second[inside]
+        for coordinates, lows, highs in by_axis:  # axis by axis, each on the pairs left: most fail the first
+            coordinate = coordinates[first]
+            inside = (lows[second] <= coordinate) & (coordinate <= highs[second])
+            first, second = first[inside], second[inside]
         if keep is not None and len(first):
             chosen = keep(first, second)
             first, second = first[chosen], second[chosen]

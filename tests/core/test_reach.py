@@ -137,6 +137,23 @@ def test_what_a_slit_between_two_rooms_lets_through(monkeypatch, width):
         assert (lost <= 0.1 * reached).all(), (lost / reached).max()
 
 
+def test_a_source_whose_rays_meet_a_see_through_wall_is_shot_everywhere(monkeypatch):
+    """The two rooms with the wall between them see-through (opacity 0.5, glass): the light
+    panel's rays meet it, so its box is unbounded and its culled shot is its full one, the light
+    it sends into the second room included (a box would end at the glass, as at an opaque wall)."""
+    scene = two_rooms()
+    on_shared_wall = (np.abs(scene.vertices[scene.triangles][..., 0] - 1) < 1e-12).all(axis=1)
+    scene = dataclasses.replace(scene, opacity=np.where(on_shared_wall, 0.5, 1.0))
+    full, engine, sources, _ = columns(scene, False, monkeypatch)
+    culled, _, _, _ = columns(scene, True, monkeypatch)
+    mesh = engine.mesh
+    lights = np.flatnonzero(mesh.patch_emission[sources].any(axis=1))
+    second = np.flatnonzero(mesh.patch_centroids[:, 0] > 1)
+    reached = mesh.patch_areas[second] @ full[second][:, lights] / mesh.patch_areas[sources[lights]]
+    assert reached.min() > 0.01  # through the glass
+    np.testing.assert_array_equal(culled[:, lights], full[:, lights])
+
+
 def test_a_resolve_with_an_emitter_turned_off_equals_a_fresh_bake(monkeypatch):
     """With reach boxes on, a re-solve in which one of two emitting surfaces goes dark (the
     emitters are fewer than when their boxes were found: it raised IndexError when the boxes were
