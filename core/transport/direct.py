@@ -289,24 +289,37 @@ class DirectLighting:
         random (Cranley-Patterson), another rotation for each ``attempt``."""
         grid = _strata(self.rays * SKY_RAYS_PER_RAY)
         rotation = np.random.default_rng([self.seed, first, *([attempt] if attempt else [])]).random(
-            (len(points), 1, 2))
-        u, v = np.moveaxis((grid[None] + rotation) % 1.0, -1, 0)  # (m, S) each
-        radius, angle = np.sqrt(u), 2 * math.pi * v
-        tangent, bitangent = tangent_frames(normals)
-        directions = ((radius * np.cos(angle))[..., None] * tangent[:, None]
-                      + (radius * np.sin(angle))[..., None] * bitangent[:, None]
-                      + np.sqrt(1 - u)[..., None] * normals[:, None])  # (m, S, 3)
+            (len(points), 2))
+        u = (grid[:, 0] + rotation[:, :1]) % 1.0  # (m, S)
+        # the angle 2 pi (stratum + rotation): its cosine and sine from those of its two parts
+        stratum, turn = 2 * math.pi * grid[:, 1], 2 * math.pi * rotation[:, 1:]
+        cosine = np.cos(stratum) * np.cos(turn) - np.sin(stratum) * np.sin(turn)
+        sine = np.sin(stratum) * np.cos(turn) + np.cos(stratum) * np.sin(turn)
+        radius = np.sqrt(u)
+        local = np.stack([radius * cosine, radius * sine, np.sqrt(1 - u)], axis=-1)  # (m, S, 3)
+        frames = np.stack(tangent_frames(normals) + (normals,), axis=1)  # (m, 3, 3): rows tangent, bitangent, normal
+        directions = local.astype(np.float32) @ frames.astype(np.float32)  # float32, as the rays are traced
         return directions, self._unblocked(points, normals, directions, None)
 
     def _unblocked(self, points, normals, offsets, reach) -> np.ndarray:
         """(m, s) what gets through along each of the s rays from each point (m, 3) along
         ``offsets`` (m, s, 3): whether no surface blocks it, or the share of its light no surface
-        stops where some let light through (``_blocked``; ``reach`` 1.0 up to the offsets' ends,
-        None to infinity)."""
-        count = offsets.shape[1]
-        blocked = self._blocked(np.repeat(points, count, axis=0), np.repeat(normals, count, axis=0),
-                                offsets.reshape(-1, 3), None if reach is None else np.full(len(points) * count, reach))
-        return _seen(blocked).reshape(len(points), count)
+        stops where some let light through (as ``_blocked``; ``reach`` 1.0 up to the offsets'
+        ends, None to infinity). The rays of a point share its start, computed once."""
+        visibility = self.visibility
+        shape = offsets.shape[:2]
+        starts = visibility.to_unit(points) + RAY_EPSILON * normals  # (m, 3)
+        directions = np.asarray(offsets, np.float32) * np.float32(visibility.scale)
+        lengths = np.linalg.norm(directions, axis=2)
+        if reach is None:  # beyond the scene: every surface is within 1 of the unit space's centre
+            directions /= np.maximum(lengths, np.finfo(np.float32).tiny)[..., None]
+            ray_reach = np.linalg.norm(starts, axis=1)[:, None] + 2.0
+        else:  # stop RAY_EPSILON short of the end, along the ray
+            ray_reach = reach - RAY_EPSILON / np.maximum(lengths, np.finfo(np.float32).tiny)
+        ray_starts, ray_reaches = np.empty((*shape, 3), np.float32), np.empty(shape, np.float32)
+        ray_starts[:], ray_reaches[:] = starts[:, None], ray_reach
+        blocked = visibility.blocked_unit(ray_starts.reshape(-1, 3), directions.reshape(-1, 3), ray_reaches.reshape(-1))
+        return _seen(blocked).reshape(shape)
 
     def _blocked(self, points, normals, offsets, reach) -> np.ndarray:
         """(n,) whether a surface lies between points (lifted RAY_EPSILON off their surface)
