@@ -108,31 +108,36 @@ class BakeSession:
 
     def change(self, scene: Scene) -> str | None:
         """Why ``bake(scene)`` would bake afresh, in words; None when it re-solves."""
-        if self._kept is None:
+        kept = self._kept  # read once: a bake on its thread may replace it
+        if kept is None:
             return "nothing was baked yet"
-        change = geometry_change(self._kept.scene, scene)
-        if change is None and regions_split(self._kept.panels, scene):
+        change = geometry_change(kept.scene, scene)
+        if change is None and regions_split(kept.panels, scene):
             change = "colours differ now inside a flat region whose triangles were merged"
         return change
 
     @property
     def kept_bytes(self) -> int:
         """About the memory the session holds for re-solves."""
-        return 0 if self._kept is None else self._kept.bytes()
+        kept = self._kept  # read once: a bake on its thread may replace it
+        return 0 if kept is None else kept.bytes()
 
     def bake(self, scene: Scene, progress: ProgressCallback | None = None) -> BakeResult:
         """``core.bake``'s result for ``scene``, re-solved when only its colours changed since
         this session's last bake afresh (then ``stats["resolved"]`` is True). The bake runs on a
         worker thread; ``progress`` is called from this one (``progress.relayed``)."""
-        return relayed(lambda report: self._baked(scene, report), progress)
+        result, kept = relayed(lambda report: self._baked(scene, report), progress)
+        self._kept = kept  # only for a bake not cancelled, not even at its last report
+        return result
 
-    def _baked(self, scene: Scene, progress: ProgressCallback | None) -> BakeResult:
+    def _baked(self, scene: Scene, progress: ProgressCallback | None) -> tuple[BakeResult, _Kept | None]:
+        """The bake, and what the session keeps after it."""
         if self.change(scene) is None:
-            return self._resolve(scene, progress)
+            return self._resolve(scene, progress), self._kept
         self._kept = None  # nothing stale is held while the new bake runs
         return self._first(scene, progress)
 
-    def _first(self, scene: Scene, progress: ProgressCallback | None) -> BakeResult:
+    def _first(self, scene: Scene, progress: ProgressCallback | None) -> tuple[BakeResult, _Kept | None]:
         method = self.method
         settings = resolved(BakeSettings(method=method, solver=self.solver, **self.knobs), scene.extent)
         channels = 1 if scene.is_grey else 3
@@ -162,9 +167,7 @@ class BakeSession:
         kept.node_noise = node_noise
         kept.level_change = solution.level_change
         result = self._finish(scene, settings, panels, solution, node_direct, kept, stages, span)
-        if self.keep:
-            self._kept = kept
-        return result
+        return result, kept if self.keep else None
 
     def _resolve(self, scene: Scene, progress: ProgressCallback | None) -> BakeResult:
         kept = self._kept

@@ -1,5 +1,5 @@
-"""A bake that runs in slices, for hosts that must stay responsive (Blender's modal operators):
-``step(budget)`` lets the bake work for about ``budget`` seconds and returns.
+"""A bake for hosts that must stay responsive (Blender's modal operators): ``step(budget)`` waits
+about ``budget`` seconds for the bake's reports and returns.
 
 The bake's reports come to a thread that pauses at the first report after the slice's budget
 is spent and waits there for the next ``step``; so the host sees progress, can cancel, and takes
@@ -16,7 +16,7 @@ from typing import Callable
 
 from .bake import BakeResult, bake
 from .scene import Scene
-from .util.progress import BakeCancelled
+from .util.progress import BakeCancelled, stop_abandoned
 
 
 class BakeJob:
@@ -74,6 +74,7 @@ class BakeJob:
             return
         self._go.set()
         self._thread.join()
+        stop_abandoned()
 
     def result(self) -> BakeResult:
         """The finished bake's result; the bake's own exception if it failed or was cancelled."""

@@ -1,7 +1,7 @@
 """``bpy.ops.radiosity.bake()`` and ``bpy.ops.radiosity.clear()``.
 
-In the UI the bake is modal: the core works in slices under a time budget per timer tick, the
-status bar shows its progress, Esc cancels with nothing changed, and the colours are written in
+In the UI the bake is modal: the core works on threads of its own, each timer tick shows its
+progress in the status bar, Esc cancels with nothing changed, and the colours are written in
 the last step only, so a finished bake is one undo step. In background mode, or when called
 from a script without invoking, it runs straight through.
 """
@@ -92,6 +92,11 @@ class RADIOSITY_OT_bake(bpy.types.Operator):
         except ValueError as error:
             self.report({"ERROR"}, f"Bake: {error}")
             return {"CANCELLED"}
+
+    def cancel(self, context):
+        """Blender ends the bake (a file opened, the window closed): stop it, nothing written."""
+        self._job.cancel()
+        self._end(context)
 
     def _end(self, context) -> None:
         RADIOSITY_OT_bake.running = False

@@ -78,7 +78,7 @@ class Progress:
 
 _running: ContextVar[Progress | None] = ContextVar("running", default=None)
 # Work whose caller cancelled it and heard so at once; it stops at its next report, and the next
-# relayed work waits for that (two bakes never run side by side).
+# relayed work waits for that (``stop_abandoned``).
 _abandoned: list[threading.Thread] = []
 
 
@@ -86,8 +86,8 @@ class _Relay:
     """What work on a worker thread last reported, for the caller's thread to pass on."""
 
     def __init__(self) -> None:
-        self.fraction, self.message = 0.0, "starting"
-        self.reports = 0  # counted after the fraction and message are set
+        self.latest = (0.0, "starting")  # fraction and message
+        self.reports = 0  # counted after ``latest`` is set
         self.cancelled = False
         self.news = threading.Event()  # a report not yet passed on, or the work's end
 
@@ -95,7 +95,7 @@ class _Relay:
         """The work's progress callback: raises BakeCancelled once the caller has cancelled."""
         if self.cancelled:
             raise BakeCancelled(f"cancelled before {message}")
-        self.fraction, self.message = fraction, message
+        self.latest = (fraction, message)
         self.reports += 1
         self.news.set()
 
@@ -104,13 +104,13 @@ def relayed(work: Callable[[ProgressCallback | None], Result], callback: Progres
     """``work(report)`` on a worker thread while this thread calls ``callback(fraction, message)``
     with what it last reported: at once when it reports, and every REPORT_INTERVAL while it is
     inside one long step that cannot (a sort of millions of keys, a large vectorised pass: NumPy
-    and Embree release the GIL). So the caller hears at least every 0.2 s in every stage, and a
-    cancel (``callback`` returning False) raises BakeCancelled here at once; the work stops at its
-    next report, its result dropped, before the next relayed work starts."""
+    and Embree's queries release the GIL; ``np.repeat``, ``np.unique(axis=0)`` and Embree's BVH
+    build do not: 0.36 s on 270,000 triangles). A cancel (``callback`` returning False) raises
+    BakeCancelled here at once; the work stops at its next report, its result dropped, before the
+    next relayed work starts (``stop_abandoned``)."""
+    stop_abandoned()
     if callback is None:
         return work(None)
-    while _abandoned:
-        _abandoned.pop().join()
     relay, outcome = _Relay(), {}
     context = contextvars.copy_context()
 
@@ -131,17 +131,25 @@ def relayed(work: Callable[[ProgressCallback | None], Result], callback: Progres
             relay.news.clear()
             if worker.is_alive():
                 passed = relay.reports
-                if callback(relay.fraction, relay.message) is False:
-                    raise BakeCancelled(f"cancelled during {relay.message}")
+                if callback(*relay.latest) is False:
+                    raise BakeCancelled(f"cancelled during {relay.latest[1]}")
     except BaseException:  # a cancel, or an interrupt of the caller's thread
         relay.cancelled = True
         _abandoned.append(worker)
         raise
     if "error" in outcome:
         raise outcome["error"]
-    if relay.reports != passed and callback(relay.fraction, relay.message) is False:  # the last, as "done"
-        raise BakeCancelled(f"cancelled during {relay.message}")
+    if relay.reports != passed and callback(*relay.latest) is False:  # the last, as "done"
+        raise BakeCancelled(f"cancelled during {relay.latest[1]}")
     return outcome["result"]
+
+
+def stop_abandoned() -> None:
+    """Wait until the work of every cancelled ``relayed`` call has stopped (each at its next
+    report): no two bakes run side by side, nor touch one session at once."""
+    while _abandoned:
+        _abandoned[-1].join()
+        _abandoned.pop()
 
 
 def heartbeat() -> None:

@@ -94,8 +94,8 @@ def test_relayed_work_is_heard_while_it_is_inside_one_long_step():
 
 def test_a_cancel_during_a_long_step_is_heard_at_once_and_the_work_stops_at_its_next_report():
     """The caller cancels 0.2 s into a 0.6 s step: BakeCancelled reaches it within a report
-    interval, the work never goes past its next report, and the next relayed work starts only
-    after it has stopped."""
+    interval, the work never goes past its next report, and the next relayed work (even one
+    without a callback) starts only after it has stopped."""
     events = []
 
     def work(report):
@@ -110,7 +110,7 @@ def test_a_cancel_during_a_long_step_is_heard_at_once_and_the_work_stops_at_its_
         relayed(work, lambda fraction, message: time.perf_counter() - started < 0.2)
     assert time.perf_counter() - started <= 0.2 + 2 * REPORT_INTERVAL
     assert events == []
-    relayed(lambda report: events.append("the next work"), lambda fraction, message: True)
+    relayed(lambda report: events.append("the next work"), None)  # with no one to tell, too
     assert events == ["reported after the step", "the next work"]
 
 

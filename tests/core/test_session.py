@@ -16,7 +16,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from core import BakeSession, Environment, PointLight, Scene, SunLight, bake
+from core import BakeCancelled, BakeSession, Environment, PointLight, Scene, SunLight, bake
+from core.util.progress import stop_abandoned
 
 from scenes import grid, lit_room
 
@@ -144,6 +145,24 @@ def test_anything_but_colours_is_baked_afresh(change, reason):
     assert not result.stats["resolved"]
     assert_same_colours(result, bake(changed, **KNOBS))
     assert session.change(changed) is None  # the new bake is the one kept
+
+
+def test_a_bake_cancelled_even_at_its_last_report_keeps_nothing():
+    """A cancel heard at the last report ("done"), when the bake's own thread has nothing left to
+    stop at: the session keeps nothing, and a re-solve after a cancelled one keeps its first
+    bake."""
+    scene = lit_room()
+    session = BakeSession(**KNOBS)
+    stop_at_done = lambda fraction, message: message != "done"  # noqa: E731
+    with pytest.raises(BakeCancelled):
+        session.bake(scene, stop_at_done)
+    stop_abandoned()  # the bake's thread has finished
+    assert session.change(scene) == "nothing was baked yet"
+    session.bake(scene)
+    with pytest.raises(BakeCancelled):
+        session.bake(recoloured(scene, reflectance=0.9 * scene.reflectance), stop_at_done)
+    stop_abandoned()
+    assert session.bake(scene).stats["resolved"]
 
 
 def test_a_sky_that_was_black_is_baked_afresh():
