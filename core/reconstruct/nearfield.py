@@ -288,7 +288,8 @@ def _near_pairs(points: np.ndarray, normals: np.ndarray, sizes: np.ndarray, mesh
 
     point_axes = [np.ascontiguousarray(points[:, axis]) for axis in range(3)]
     centroid_axes = [np.ascontiguousarray(mesh.patch_centroids[candidates, axis]) for axis in range(3)]
-    reach2 = (NEAR_REACH * edges[candidates]) ** 2
+    reach = NEAR_REACH * edges[candidates]
+    reach2 = reach ** 2
 
     def may_see(receivers: np.ndarray, chosen: np.ndarray) -> np.ndarray:
         # close enough; and the patch neither on nor behind the point's tangent plane (its own
@@ -317,10 +318,9 @@ def _near_pairs(points: np.ndarray, normals: np.ndarray, sizes: np.ndarray, mesh
         return result
 
     # the boxes within reach of each patch: its box grown by the pad, and its centroid's sphere's
-    reach = np.sqrt(reach2)[:, None]
     centroids = mesh.patch_centroids[candidates]
-    low = np.maximum(corners.min(axis=1) - pad, centroids - reach)
-    high = np.minimum(corners.max(axis=1) + pad, centroids + reach)
+    low = np.maximum(corners.min(axis=1) - pad, centroids - reach[:, None])
+    high = np.minimum(corners.max(axis=1) + pad, centroids + reach[:, None])
     receivers, chosen = spatial.points_in_boxes(points, low, high, may_see)
     patches = candidates[chosen]
     parts = parallel.map_ordered(

@@ -184,7 +184,7 @@ class DirectLighting:
                     seen = self._seen_in_cone(points[lit], normals[lit], -light.direction, light.angle / 2, samples)
                 else:
                     towards = np.broadcast_to(-light.direction, (len(lit), 3))
-                    seen = _seen(self._blocked(points[lit], normals[lit], towards, None))
+                    seen = self._unblocked(points[lit], normals[lit], towards[:, None], None)[:, 0]
                 result[lit, index] = (cosine[lit] * seen / math.pi)[:, None]
             elif isinstance(light, (PointLight, SpotLight)):
                 offset = light.position - points
@@ -198,7 +198,7 @@ class DirectLighting:
                     samples = self._light_samples(lit, first, index, paired)
                     seen = self._seen_on_disc(points[lit], normals[lit], light.position, light.radius, samples)
                 else:
-                    seen = _seen(self._blocked(points[lit], normals[lit], offset[lit], np.ones(len(lit))))
+                    seen = self._unblocked(points[lit], normals[lit], offset[lit][:, None], 1.0)[:, 0]
                 result[lit, index] = (strength[lit] * seen / (4 * math.pi**2))[:, None]
         return result
 
@@ -304,10 +304,13 @@ class DirectLighting:
     def _unblocked(self, points, normals, offsets, reach) -> np.ndarray:
         """(m, s) what gets through along each of the s rays from each point (m, 3) along
         ``offsets`` (m, s, 3): whether no surface blocks it, or the share of its light no surface
-        stops where some let light through (as ``_blocked``; ``reach`` 1.0 up to the offsets'
-        ends, None to infinity). The rays of a point share its start, computed once."""
+        stops where some let light through (``Visibility.blocked_unit``); ``reach`` 1.0 up to the
+        offsets' ends, None to infinity. The rays start RAY_EPSILON off the point's surface, a
+        point's rays from one start computed once."""
         visibility = self.visibility
         shape = offsets.shape[:2]
+        if offsets.size == 0:
+            return np.ones(shape)
         starts = visibility.to_unit(points) + RAY_EPSILON * normals  # (m, 3)
         directions = np.asarray(offsets, np.float32) * np.float32(visibility.scale)
         lengths = np.linalg.norm(directions, axis=2)
@@ -320,25 +323,6 @@ class DirectLighting:
         ray_starts[:], ray_reaches[:] = starts[:, None], ray_reach
         blocked = visibility.blocked_unit(ray_starts.reshape(-1, 3), directions.reshape(-1, 3), ray_reaches.reshape(-1))
         return _seen(blocked).reshape(shape)
-
-    def _blocked(self, points, normals, offsets, reach) -> np.ndarray:
-        """(n,) whether a surface lies between points (lifted RAY_EPSILON off their surface)
-        and points + reach * offsets (world-space vectors), or the share of the light the
-        surfaces there stop where some let light through (``Visibility.blocked_unit``); reach
-        None: to infinity."""
-        if len(points) == 0:
-            return np.zeros(0, dtype=bool)
-        visibility = self.visibility
-        directions = offsets * visibility.scale
-        starts = visibility.to_unit(points) + RAY_EPSILON * normals
-        if reach is None:
-            # beyond the scene: every surface is within 1 of the unit space's centre
-            directions /= np.linalg.norm(directions, axis=1, keepdims=True)
-            reach = np.linalg.norm(starts, axis=1) + 2.0
-        else:
-            # stop RAY_EPSILON short of the light, along the ray
-            reach = reach - RAY_EPSILON / np.maximum(np.linalg.norm(directions, axis=1), np.finfo(float).tiny)
-        return visibility.blocked_unit(starts, directions.astype(np.float32), reach)
 
 
 def _seen(blocked: np.ndarray) -> np.ndarray:
