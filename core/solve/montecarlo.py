@@ -47,8 +47,10 @@ POINTS_PER_BLOCK = 1 << 11
 MIN_HITS = 8
 LAYERS_PER_CELL = 4
 # Particles per patch per final-gather ray (``bake``'s monte_carlo_rays): the patches' noise and
-# the gather's fall together as the rays grow (tests/core/test_montecarlo.py).
-PARTICLES_PER_RAY = 1 / 16
+# the gather's fall together as the rays grow (tests/core/test_montecarlo.py). A quarter, not a
+# sixteenth: in a room lit through its windows the gather of a vertex in a crevice (a cup's foot on
+# its saucer) reads a few small patches, and their noise is its error (docs/notes/experiments.md).
+PARTICLES_PER_RAY = 1 / 4
 
 @dataclass(frozen=True)
 class Gathered:
