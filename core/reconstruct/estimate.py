@@ -1,7 +1,7 @@
 """How far a bake's corner colours may be from the converged answer: the light not yet
 distributed (or, where Monte Carlo carried it, the final gather's noise: ``monte_carlo_error``),
 plus the error of representing radiosity as constant over each patch, plus the noise of the sky's
-directions at the nodes that see part of it (the spread of their rotations).
+directions at the nodes that see part of it (the spread of their looks along its outline).
 
 Errors are relative RMS over the receiver nodes that emit nothing, all channels:
 sqrt(mean |c - c*|^2) / mean |c*| (the NRMSE the benchmarks measure, docs/results/tradeoffs.md).

@@ -46,11 +46,14 @@ POINTS_PER_BLOCK = 1024
 # small share s of the hemisphere, and n stratified directions see it to about sqrt(s / n) of
 # its light: a few hundred directions keep a small window's blotches to a few percent of it.
 SKY_RAYS_PER_RAY = 16
-# A point (not a patch) that sees part of the sky takes the mean of this many rotations of its
-# directions, and their spread gives its standard error: through a window with mullions, one
-# rotation of 256 directions spread by 8 % of the light (docs/notes/experiments.md, "The sky's
-# sampling noise").
-PARTLY_OPEN_PASSES = 16
+# A point (not a patch) that sees part of the sky looks again where the sky's outline is: the
+# strata whose direction or a neighbour's disagrees with theirs, and the ring around them, each
+# resampled on an OUTLINE_SPLIT x OUTLINE_SPLIT sub-lattice (the rest of its view is the same
+# direction after direction). It takes the mean of OUTLINE_LOOKS such looks, each with its own
+# rotation, and their spread gives its standard error: through the breakfast room's windows, the
+# error of 16 plain rotations at half their rays (docs/notes/experiments.md, "The sky's outline").
+OUTLINE_SPLIT = 4
+OUTLINE_LOOKS = 2
 # The pieces that splitting the area lights (``discretize.light_divisions``) may add, all lights together:
 # each piece costs its rays at every point.
 MAX_ADDED_LIGHT_PIECES = 256
@@ -118,7 +121,7 @@ class DirectLighting:
                            report: Callable[[float], None]) -> tuple[np.ndarray, np.ndarray]:
         """``factors_at``'s (m, S, 3), and the standard error (m, S - L, 3) of the sky's and the
         environment's (after the L lights) where a point sees part of the sky: the spread of the
-        PARTLY_OPEN_PASSES rotations it averages over the root of their number (zero where all its
+        OUTLINE_LOOKS looks it averages over the root of their number (zero where all its
         directions agree)."""
         if self.source_count == 0 or len(points) == 0:
             return np.zeros((len(points), self.source_count, 3)), np.zeros((len(points), self.source_count
@@ -160,7 +163,7 @@ class DirectLighting:
         return joined if outputs > 1 else joined[0]
 
     def _point_block(self, points, normals, first) -> tuple[np.ndarray, np.ndarray]:
-        smooth, noise = self._smooth(points, normals, first, PARTLY_OPEN_PASSES)
+        smooth, noise = self._smooth(points, normals, first, outlined=True)
         return self._sharp(points, normals, first) + smooth, noise[:, len(self.lights):]
 
     def _patch_block(self, corners, normals, first) -> np.ndarray:
@@ -234,28 +237,45 @@ class DirectLighting:
                       + (sin_theta * np.sin(phi))[..., None] * bitangent[0])  # (k, s, 3)
         return self._unblocked(points, normals, directions, None).mean(axis=1)
 
-    def _smooth(self, points, normals, first, passes: int = 1) -> tuple[np.ndarray, np.ndarray]:
-        """(m, S, 3) area lights and the sky; where a point sees part of the sky, the mean of
-        ``passes`` rotations of its directions (``_open_sky``); and (m, S, 3) the standard error
-        of that mean, from the rotations' spread (zero elsewhere)."""
+    def _smooth(self, points, normals, first, outlined: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """(m, S, 3) area lights and the sky; ``outlined``, where a point sees part of the sky, the
+        mean of OUTLINE_LOOKS looks along its outline (``_outlined``); and (m, S, 3) the standard
+        error of that mean, from the looks' spread (zero elsewhere)."""
         result = self._area_lights(points, normals)
         noise = np.zeros_like(result)
         if self.sky.any() or self.environment is not None:
-            directions, open_sky = self._open_sky(points, normals, first)
-            sky = self._sky(directions, open_sky)
+            rotation = self._rotation(first, 0, len(points))
+            directions, open_sky = self._open_sky(points, normals, rotation)
             partly = np.flatnonzero((open_sky > 0).any(axis=1) & (open_sky < 1).any(axis=1))
-            if passes > 1 and len(partly):
-                rotations = np.concatenate([sky[None, partly],
-                                            self._rotations(points[partly], normals[partly], first, range(1, passes))])
-                sky[partly] = rotations.mean(axis=0)
-                noise[partly] = rotations.std(axis=0, ddof=1) / math.sqrt(passes)
+            sky = self._sky(directions, open_sky)
+            if outlined and len(partly):
+                looks = [self._outlined(points[partly], normals[partly], rotation[partly],
+                                        (directions[partly], open_sky[partly]))]
+                looks += [self._outlined(points[partly], normals[partly], self._rotation(first, look, len(partly)))
+                          for look in range(1, OUTLINE_LOOKS)]
+                sky[partly] = np.mean(looks, axis=0)
+                noise[partly] = np.std(looks, axis=0, ddof=1) / math.sqrt(OUTLINE_LOOKS)
             result += sky
         return result, noise
 
-    def _rotations(self, points, normals, first, attempts: range) -> np.ndarray:
-        """(r, m, S, 3) the sky's light at points from each of the rotations ``attempts`` of their
-        directions (``_open_sky``)."""
-        return np.stack([self._sky(*self._open_sky(points, normals, first, attempt)) for attempt in attempts])
+    def _outlined(self, points, normals, rotation, seen=None) -> np.ndarray:
+        """(m, S, 3) the sky and the environment per unit at points, from ``_open_sky``'s
+        directions at ``rotation`` (m, 2) (``seen``: those directions and what gets through along
+        them, if already traced), with the strata on the sky's outline (``_outline``) resampled on
+        an OUTLINE_SPLIT x OUTLINE_SPLIT sub-lattice each, rotated as the strata: the mean over
+        the strata of each one's direction, or of its sub-lattice."""
+        directions, open_sky = seen if seen is not None else self._open_sky(points, normals, rotation)
+        count, strata = open_sky.shape
+        shares = self._sky(directions.reshape(-1, 1, 3), open_sky.reshape(-1, 1)).reshape(count, strata, -1, 3)
+        point, stratum = np.nonzero(_outline(open_sky))
+        if len(point):
+            side = int(round(math.sqrt(strata)))
+            split = (_strata(OUTLINE_SPLIT * OUTLINE_SPLIT) - 0.5) / side  # (k, 2) offsets within a stratum
+            square = (_strata(strata)[stratum][:, None] + split + rotation[point][:, None]) % 1.0
+            angle = 2 * math.pi * square[..., 1]
+            fine = _cosine_directions(square[..., 0], np.cos(angle), np.sin(angle), normals[point])
+            shares[point, stratum] = self._sky(fine, self._unblocked(points[point], normals[point], fine, None))
+        return shares.mean(axis=1)
 
     def _sky(self, directions: np.ndarray, open_sky: np.ndarray) -> np.ndarray:
         """(m, S, 3) the sky and the environment per unit, from the cosine-distributed
@@ -282,24 +302,23 @@ class DirectLighting:
             result[:, index] = (factors.reshape(count, sources).sum(axis=1) / (math.pi * area))[:, None]
         return result
 
-    def _open_sky(self, points, normals, first, attempt: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    def _open_sky(self, points, normals, rotation) -> tuple[np.ndarray, np.ndarray]:
         """Directions (m, K, 3) over each point's cosine-weighted hemisphere, and which of them
         (m, K) see no surface: K = ``rays`` x SKY_RAYS_PER_RAY stratified directions by Malley's
-        method (uniform on the disc, lifted to the hemisphere), each point's strata rotated at
-        random (Cranley-Patterson), another rotation for each ``attempt``."""
+        method (``_cosine_directions``), each point's strata turned by its ``rotation`` (m, 2) of
+        the unit square (random: Cranley-Patterson)."""
         grid = _strata(self.rays * SKY_RAYS_PER_RAY)
-        rotation = np.random.default_rng([self.seed, first, *([attempt] if attempt else [])]).random(
-            (len(points), 2))
-        u = (grid[:, 0] + rotation[:, :1]) % 1.0  # (m, S)
         # the angle 2 pi (stratum + rotation): its cosine and sine from those of its two parts
         stratum, turn = 2 * math.pi * grid[:, 1], 2 * math.pi * rotation[:, 1:]
-        cosine = np.cos(stratum) * np.cos(turn) - np.sin(stratum) * np.sin(turn)
-        sine = np.sin(stratum) * np.cos(turn) + np.cos(stratum) * np.sin(turn)
-        radius = np.sqrt(u)
-        local = np.stack([radius * cosine, radius * sine, np.sqrt(1 - u)], axis=-1)  # (m, S, 3)
-        frames = np.stack(tangent_frames(normals) + (normals,), axis=1)  # (m, 3, 3): rows tangent, bitangent, normal
-        directions = local.astype(np.float32) @ frames.astype(np.float32)  # float32, as the rays are traced
+        directions = _cosine_directions((grid[:, 0] + rotation[:, :1]) % 1.0,
+                                        np.cos(stratum) * np.cos(turn) - np.sin(stratum) * np.sin(turn),
+                                        np.sin(stratum) * np.cos(turn) + np.cos(stratum) * np.sin(turn), normals)
         return directions, self._unblocked(points, normals, directions, None)
+
+    def _rotation(self, first: int, look: int, count: int) -> np.ndarray:
+        """(count, 2) the rotations of the sky's strata (``_open_sky``) at the points of the block
+        from ``first``, for their ``look``."""
+        return np.random.default_rng([self.seed, first, *([look] if look else [])]).random((count, 2))
 
     def _unblocked(self, points, normals, offsets, reach) -> np.ndarray:
         """(m, s) what gets through along each of the s rays from each point (m, 3) along
@@ -328,6 +347,33 @@ class DirectLighting:
 def _seen(blocked: np.ndarray) -> np.ndarray:
     """What gets through, from what ``Visibility.blocked_unit`` stops (bool, or shares)."""
     return ~blocked if blocked.dtype == bool else 1.0 - blocked
+
+
+def _cosine_directions(u: np.ndarray, cosine: np.ndarray, sine: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """(m, k, 3) float32 cosine-distributed directions about unit ``normals`` (m, 3) from points
+    (m, k) of the unit square by Malley's method: radius sqrt(u) on the disc, at the angle whose
+    ``cosine`` and ``sine`` are given, lifted to the hemisphere."""
+    radius = np.sqrt(u)
+    local = np.stack([radius * cosine, radius * sine, np.sqrt(1 - u)], axis=-1)  # (m, k, 3)
+    frames = np.stack(tangent_frames(normals) + (normals,), axis=1)  # (m, 3, 3): rows tangent, bitangent, normal
+    return local.astype(np.float32) @ frames.astype(np.float32)  # float32, as the rays are traced
+
+
+def _outline(through: np.ndarray) -> np.ndarray:
+    """(m, K) bool: the strata of K = n x n directions (``_strata``' order) on the outline of what
+    gets ``through`` (m, K) along them: those that differ from a neighbour (the angle wraps around,
+    and so does the radius, as the rotation does), and the ring of strata around those."""
+    side = int(round(math.sqrt(through.shape[1])))
+    grid = through.reshape(-1, side, side)
+    differs = np.zeros(grid.shape, bool)
+    for axis in (1, 2):
+        for step in (1, -1):
+            differs |= grid != np.roll(grid, step, axis=axis)
+    ring = differs.copy()
+    for across in (-1, 0, 1):
+        for along in (-1, 0, 1):
+            ring |= np.roll(differs, (across, along), axis=(1, 2))
+    return ring.reshape(through.shape)
 
 
 def _strata(count: int) -> np.ndarray:
