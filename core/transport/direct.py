@@ -46,12 +46,14 @@ POINTS_PER_BLOCK = 1024
 # small share s of the hemisphere, and n stratified directions see it to about sqrt(s / n) of
 # its light: a few hundred directions keep a small window's blotches to a few percent of it.
 SKY_RAYS_PER_RAY = 16
-# A point (not a patch) that sees part of the sky looks again where the sky's outline is: the
-# strata whose direction or a neighbour's disagrees with theirs, and the ring around them, each
-# resampled on an OUTLINE_SPLIT x OUTLINE_SPLIT sub-lattice (the rest of its view is the same
-# direction after direction). It takes the mean of OUTLINE_LOOKS such looks, each with its own
-# rotation, and their spread gives its standard error: through the breakfast room's windows, the
-# error of 16 plain rotations at half their rays (docs/notes/experiments.md, "The sky's outline").
+# A point (not a patch) that sees part of the sky looks again, OUTLINE_LOOKS times: each look
+# samples every stratum once more and the strata on the sky's outline (those where its first
+# directions differ from a neighbour's, and the ring around them) OUTLINE_SPLIT x OUTLINE_SPLIT
+# times, each at points shifted at random within the stratum, so that no look depends on what the
+# first directions met (a thin bar they hit is not then stepped around). It takes the mean of the
+# looks, and their spread gives its standard error: through the breakfast room's windows, the error
+# of 16 rotations of its directions at 60 % of their rays (docs/notes/experiments.md, "Where the
+# breakfast room's error is").
 OUTLINE_SPLIT = 4
 OUTLINE_LOOKS = 2
 # The pieces that splitting the area lights (``discretize.light_divisions``) may add, all lights together:
@@ -121,8 +123,8 @@ class DirectLighting:
                            report: Callable[[float], None]) -> tuple[np.ndarray, np.ndarray]:
         """``factors_at``'s (m, S, 3), and the standard error (m, S - L, 3) of the sky's and the
         environment's (after the L lights) where a point sees part of the sky: the spread of the
-        OUTLINE_LOOKS looks it averages over the root of their number (zero where all its
-        directions agree)."""
+        OUTLINE_LOOKS looks it averages over the root of their number (zero where all its first
+        directions agree, and where its looks happen to)."""
         if self.source_count == 0 or len(points) == 0:
             return np.zeros((len(points), self.source_count, 3)), np.zeros((len(points), self.source_count
                                                                            - len(self.lights), 3))
@@ -239,43 +241,57 @@ class DirectLighting:
 
     def _smooth(self, points, normals, first, outlined: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """(m, S, 3) area lights and the sky; ``outlined``, where a point sees part of the sky, the
-        mean of OUTLINE_LOOKS looks along its outline (``_outlined``); and (m, S, 3) the standard
+        mean of OUTLINE_LOOKS looks along its outline (``_looked``); and (m, S, 3) the standard
         error of that mean, from the looks' spread (zero elsewhere)."""
         result = self._area_lights(points, normals)
         noise = np.zeros_like(result)
         if self.sky.any() or self.environment is not None:
             rotation = self._rotation(first, 0, len(points))
             directions, open_sky = self._open_sky(points, normals, rotation)
-            partly = np.flatnonzero((open_sky > 0).any(axis=1) & (open_sky < 1).any(axis=1))
             sky = self._sky(directions, open_sky)
+            partly = np.flatnonzero((open_sky > 0).any(axis=1) & (open_sky < 1).any(axis=1))
             if outlined and len(partly):
-                looks = [self._outlined(points[partly], normals[partly], rotation[partly],
-                                        (directions[partly], open_sky[partly]))]
-                looks += [self._outlined(points[partly], normals[partly], self._rotation(first, look, len(partly)))
-                          for look in range(1, OUTLINE_LOOKS)]
-                sky[partly] = np.mean(looks, axis=0)
-                noise[partly] = np.std(looks, axis=0, ddof=1) / math.sqrt(OUTLINE_LOOKS)
+                outline = _outline(open_sky[partly])
+                looks = np.stack([self._looked(points[partly], normals[partly], rotation[partly], outline,
+                                               self._rotation(first, look, len(partly)))
+                                  for look in range(1, OUTLINE_LOOKS + 1)])
+                columns = slice(len(self.lights), self.source_count)
+                sky[partly, columns] = looks.mean(axis=0)
+                noise[partly, columns] = looks.std(axis=0, ddof=1) / math.sqrt(OUTLINE_LOOKS)
             result += sky
         return result, noise
 
-    def _outlined(self, points, normals, rotation, seen=None) -> np.ndarray:
-        """(m, S, 3) the sky and the environment per unit at points, from ``_open_sky``'s
-        directions at ``rotation`` (m, 2) (``seen``: those directions and what gets through along
-        them, if already traced), with the strata on the sky's outline (``_outline``) resampled on
-        an OUTLINE_SPLIT x OUTLINE_SPLIT sub-lattice each, rotated as the strata: the mean over
-        the strata of each one's direction, or of its sub-lattice."""
-        directions, open_sky = seen if seen is not None else self._open_sky(points, normals, rotation)
-        count, strata = open_sky.shape
-        shares = self._sky(directions.reshape(-1, 1, 3), open_sky.reshape(-1, 1)).reshape(count, strata, -1, 3)
-        point, stratum = np.nonzero(_outline(open_sky))
+    def _looked(self, points, normals, rotation, outline, shift) -> np.ndarray:
+        """(m, E, 3) the sky's and the environment's light per unit (E of them) at points, from a
+        look at the strata of ``_open_sky`` at ``rotation`` (m, 2): each stratum sampled once, at
+        the point ``shift`` (m, 2, in [0, 1)) of the way across it, and those on ``outline`` (m, K)
+        on an OUTLINE_SPLIT x OUTLINE_SPLIT sub-lattice shifted as much within each of its cells;
+        the mean over the strata of each one's sample or sub-lattice."""
+        count, strata = outline.shape
+        side = int(round(math.sqrt(strata)))
+        shares = self._each_direction(*self._open_sky(points, normals, rotation + (shift - 0.5) / side))
+        point, stratum = np.nonzero(outline)
         if len(point):
-            side = int(round(math.sqrt(strata)))
-            split = (_strata(OUTLINE_SPLIT * OUTLINE_SPLIT) - 0.5) / side  # (k, 2) offsets within a stratum
-            square = (_strata(strata)[stratum][:, None] + split + rotation[point][:, None]) % 1.0
+            cells = (_strata(OUTLINE_SPLIT * OUTLINE_SPLIT) - 0.5 / OUTLINE_SPLIT) / side  # (k, 2) the cells' corners
+            square = (_strata(strata)[stratum][:, None] - 0.5 / side + cells
+                      + (rotation + shift / (OUTLINE_SPLIT * side))[point][:, None]) % 1.0
             angle = 2 * math.pi * square[..., 1]
             fine = _cosine_directions(square[..., 0], np.cos(angle), np.sin(angle), normals[point])
-            shares[point, stratum] = self._sky(fine, self._unblocked(points[point], normals[point], fine, None))
+            shares[point, stratum] = self._each_direction(
+                fine, self._unblocked(points[point], normals[point], fine, None)).mean(axis=1)
         return shares.mean(axis=1)
+
+    def _each_direction(self, directions: np.ndarray, through: np.ndarray) -> np.ndarray:
+        """(m, K, E, 3) the sky's and the environment's light per unit (E of them, as in ``_sky``)
+        along each of the cosine-distributed ``directions`` (m, K, 3), from what gets ``through``
+        (m, K) along it."""
+        through = through.astype(np.float64)
+        columns = []
+        if self.sky.any():
+            columns.append(np.broadcast_to(through[..., None], (*through.shape, 3)))
+        if self.environment is not None:
+            columns.append(through[..., None] * self.environment.at(directions))
+        return np.stack(columns, axis=2)
 
     def _sky(self, directions: np.ndarray, open_sky: np.ndarray) -> np.ndarray:
         """(m, S, 3) the sky and the environment per unit, from the cosine-distributed
@@ -318,7 +334,8 @@ class DirectLighting:
     def _rotation(self, first: int, look: int, count: int) -> np.ndarray:
         """(count, 2) the rotations of the sky's strata (``_open_sky``) at the points of the block
         from ``first``, for their ``look``."""
-        return np.random.default_rng([self.seed, first, *([look] if look else [])]).random((count, 2))
+        stream = [self.seed, first, 0, look] if look else [self.seed, first]  # not a light's (``_light_samples``)
+        return np.random.default_rng(stream).random((count, 2))
 
     def _unblocked(self, points, normals, offsets, reach) -> np.ndarray:
         """(m, s) what gets through along each of the s rays from each point (m, 3) along
