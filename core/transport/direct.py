@@ -276,7 +276,7 @@ class DirectLighting:
             square = (_strata(strata)[stratum][:, None] - 0.5 / side + cells
                       + (rotation + shift / (OUTLINE_SPLIT * side))[point][:, None]) % 1.0
             angle = 2 * math.pi * square[..., 1]
-            fine = _cosine_directions(square[..., 0], np.cos(angle), np.sin(angle), normals[point])
+            fine = _cosine_directions(square[..., 0], np.cos(angle), np.sin(angle), _frames(normals)[point])
             shares[point, stratum] = self._each_direction(
                 fine, self._unblocked(points[point], normals[point], fine, None)).mean(axis=1)
         return shares.mean(axis=1)
@@ -328,7 +328,8 @@ class DirectLighting:
         stratum, turn = 2 * math.pi * grid[:, 1], 2 * math.pi * rotation[:, 1:]
         directions = _cosine_directions((grid[:, 0] + rotation[:, :1]) % 1.0,
                                         np.cos(stratum) * np.cos(turn) - np.sin(stratum) * np.sin(turn),
-                                        np.sin(stratum) * np.cos(turn) + np.cos(stratum) * np.sin(turn), normals)
+                                        np.sin(stratum) * np.cos(turn) + np.cos(stratum) * np.sin(turn),
+                                        _frames(normals))
         return directions, self._unblocked(points, normals, directions, None)
 
     def _rotation(self, first: int, look: int, count: int) -> np.ndarray:
@@ -366,14 +367,18 @@ def _seen(blocked: np.ndarray) -> np.ndarray:
     return ~blocked if blocked.dtype == bool else 1.0 - blocked
 
 
-def _cosine_directions(u: np.ndarray, cosine: np.ndarray, sine: np.ndarray, normals: np.ndarray) -> np.ndarray:
-    """(m, k, 3) float32 cosine-distributed directions about unit ``normals`` (m, 3) from points
-    (m, k) of the unit square by Malley's method: radius sqrt(u) on the disc, at the angle whose
-    ``cosine`` and ``sine`` are given, lifted to the hemisphere."""
+def _frames(normals: np.ndarray) -> np.ndarray:
+    """(m, 3, 3) float32 frames about unit ``normals`` (m, 3): rows tangent, bitangent, normal."""
+    return np.stack(tangent_frames(normals) + (normals,), axis=1).astype(np.float32)
+
+
+def _cosine_directions(u: np.ndarray, cosine: np.ndarray, sine: np.ndarray, frames: np.ndarray) -> np.ndarray:
+    """(m, k, 3) float32 cosine-distributed directions in ``frames`` (m, 3, 3, ``_frames``) from
+    points (m, k) of the unit square by Malley's method: radius sqrt(u) on the disc, at the angle
+    whose ``cosine`` and ``sine`` are given, lifted to the hemisphere."""
     radius = np.sqrt(u)
     local = np.stack([radius * cosine, radius * sine, np.sqrt(1 - u)], axis=-1)  # (m, k, 3)
-    frames = np.stack(tangent_frames(normals) + (normals,), axis=1)  # (m, 3, 3): rows tangent, bitangent, normal
-    return local.astype(np.float32) @ frames.astype(np.float32)  # float32, as the rays are traced
+    return local.astype(np.float32) @ frames  # float32, as the rays are traced
 
 
 def _outline(through: np.ndarray) -> np.ndarray:
