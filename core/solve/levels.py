@@ -216,7 +216,7 @@ class _Levels:
             visibility = Visibility(mesh.patch_corners[: mesh.front_patch_count], two_sided=mesh.back_of_front >= 0,
                                     owners=mesh.patch_triangle[: mesh.front_patch_count], casting=mesh.front_casts,
                                     opacity=mesh.front_opacity)
-        particles = int(mesh.patch_count * settings.monte_carlo_rays * montecarlo.PARTICLES_PER_RAY)
+        particles = montecarlo.particle_count(mesh.patch_count, settings.monte_carlo_rays)
         future = stages.run("tracing particles", (0.0, 0.5), montecarlo.trace, mesh, visibility, state.unshot,
                             mesh.patch_reflectance[:, : self.channels], particles, settings.seed, timer="monte_carlo")
         radiosity = state.radiosity[: mesh.patch_count] - state.unshot + future

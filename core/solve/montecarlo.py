@@ -46,11 +46,13 @@ POINTS_PER_BLOCK = 1 << 11
 # more hits per pool blur more and were no better on the benchmark scenes (docs/notes/experiments.md).
 MIN_HITS = 8
 LAYERS_PER_CELL = 4
-# Particles per patch per final-gather ray (``bake``'s monte_carlo_rays): the patches' noise and
-# the gather's fall together as the rays grow (tests/core/test_montecarlo.py). A quarter, not a
-# sixteenth: in a room lit through its windows the gather of a vertex in a crevice (a cup's foot on
-# its saucer) reads a few small patches, and their noise is its error (docs/notes/experiments.md).
-PARTICLES_PER_RAY = 1 / 4
+# Particles per patch per final-gather ray (``bake``'s monte_carlo_rays), and at least
+# MIN_PARTICLES_PER_PATCH (``particle_count``): the patches' noise and the gather's fall together as
+# the rays grow (tests/core/test_montecarlo.py), but in a room lit through its windows the gather of
+# a vertex in a crevice (a cup's foot on its saucer) reads a few small patches, whose noise is its
+# error, however few its rays (docs/notes/experiments.md, "Where the breakfast room's error is").
+PARTICLES_PER_RAY = 1 / 16
+MIN_PARTICLES_PER_PATCH = 16
 
 @dataclass(frozen=True)
 class Gathered:
@@ -172,6 +174,12 @@ class Surfaces:
         chosen, first = np.unique(ray[inside], return_index=True)
         result[chosen] = side[inside][first]
         return result
+
+
+def particle_count(patches: int, rays: int) -> int:
+    """The particles ``trace`` sends for ``patches`` patches read by a final gather of ``rays``
+    rays: rays x PARTICLES_PER_RAY per patch, at least MIN_PARTICLES_PER_PATCH."""
+    return int(patches * max(rays * PARTICLES_PER_RAY, MIN_PARTICLES_PER_PATCH))
 
 
 def trace(mesh: Discretization, visibility: Visibility, unshot: np.ndarray, reflectance: np.ndarray,
