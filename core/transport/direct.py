@@ -282,9 +282,9 @@ class DirectLighting:
         return shares.mean(axis=1)
 
     def _each_direction(self, directions: np.ndarray, through: np.ndarray) -> np.ndarray:
-        """(m, K, E, 3) the sky's and the environment's light per unit (E of them, as in ``_sky``)
-        along each of the cosine-distributed ``directions`` (m, K, 3), from what gets ``through``
-        (m, K) along it."""
+        """(m, K, E, 3) the sky's and the environment's light per unit (E of them, the sources after
+        the lights) along each of the cosine-distributed ``directions`` (m, K, 3), from what gets
+        ``through`` (m, K) along it."""
         through = through.astype(np.float64)
         columns = []
         if self.sky.any():
@@ -295,14 +295,10 @@ class DirectLighting:
 
     def _sky(self, directions: np.ndarray, open_sky: np.ndarray) -> np.ndarray:
         """(m, S, 3) the sky and the environment per unit, from the cosine-distributed
-        ``directions`` (m, K, 3) and what gets through along each (m, K)."""
+        ``directions`` (m, K, 3) and what gets through along each (m, K): the mean of
+        ``_each_direction``."""
         result = np.zeros((len(directions), self.source_count, 3))
-        column = len(self.lights)
-        if self.sky.any():
-            result[:, column] = (1.0 - (1 - open_sky).mean(axis=1))[:, None]
-            column += 1
-        if self.environment is not None:
-            result[:, column] = (open_sky[..., None] * self.environment.at(directions)).mean(axis=1)
+        result[:, len(self.lights):] = self._each_direction(directions, open_sky).mean(axis=1)
         return result
 
     def _area_lights(self, points, normals) -> np.ndarray:
@@ -391,7 +387,7 @@ def _outline(through: np.ndarray) -> np.ndarray:
     for axis in (1, 2):
         for step in (1, -1):
             differs |= grid != np.roll(grid, step, axis=axis)
-    ring = differs.copy()
+    ring = np.zeros_like(differs)
     for across in (-1, 0, 1):
         for along in (-1, 0, 1):
             ring |= np.roll(differs, (across, along), axis=(1, 2))
