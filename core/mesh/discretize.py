@@ -33,8 +33,8 @@ MAX_LIGHT_DIVISIONS = 4
 # share of the patches (many small lights, or a scene that is mostly light): the split is bounded
 # by the scene, not by its number of lights.
 MAX_EMITTER_SHARE = 0.25
-# Triangles (or panels) whose longest edge is below this share of the patch size neither are cut
-# along contact lines nor cut others (``contacts.pieces``).
+# Triangles (or panels) whose longest edge is below this share of the patch size are not cut along
+# contact lines, but cut the larger ones (``contacts.pieces``).
 SMALLEST_CUT = 0.0625
 
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..util.geometry import ENCLOSING_TOLERANCE, areas_and_normals, enclosing
 from ..util.overlaps import coplanar_overlap_pairs
+from . import embree_build
 from .numpy_tracer import NumpyTracer
 
 # Rays start and stop this far (in unit space, where the scene's extent is 1) from their end points, so a ray does not hit the surface it leaves or the one it aims at (float32
@@ -227,7 +228,8 @@ def _traced(backend: str, triangles: np.ndarray):
     embree_scene, triangle_mesh = _import_embree()
     scene = embree_scene()
     triangle_mesh(scene, triangles)
-    # Embree builds its BVH on the first query, holding the GIL: do it now, while the bake says it
-    # is preparing rays, rather than inside the first block of work
-    scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
+    if not embree_build.commit(scene):
+        # embreex builds the BVH on the first query, holding the GIL: do it now, while the bake
+        # says it is preparing rays, rather than inside the first block of work
+        scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
     return scene

@@ -104,8 +104,8 @@ def relayed(work: Callable[[ProgressCallback | None], Result], callback: Progres
     """``work(report)`` on a worker thread while this thread calls ``callback(fraction, message)``
     with what it last reported: at once when it reports, and every REPORT_INTERVAL while it is
     inside one long step that cannot (a sort of millions of keys, a large vectorised pass: NumPy
-    and Embree's queries release the GIL; ``np.repeat``, ``np.unique(axis=0)`` and Embree's BVH
-    build do not: 0.36 s on 270,000 triangles). A cancel (``callback`` returning False) raises
+    and Embree's queries and BVH builds release the GIL (``embree_build``); ``np.repeat`` and
+    ``np.unique(axis=0)`` do not). A cancel (``callback`` returning False) raises
     BakeCancelled here at once; the work stops at its next report, its result dropped, before the
     next relayed work starts (``stop_abandoned``)."""
     stop_abandoned()

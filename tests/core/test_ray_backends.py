@@ -14,6 +14,7 @@ import json
 import subprocess
 import sys
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -288,6 +289,39 @@ def test_threads_trace_side_by_side_and_every_ray_is_counted(backend):
     for together, single in zip(results, alone):
         np.testing.assert_array_equal(together, single)
     assert visibility.rays_cast - before == sum(len(batch[0]) for batch in batches)
+
+
+@needs_embree
+def test_embree_builds_its_bvh_while_other_threads_run_and_traces_as_before():
+    """``embree_build.commit`` builds an embreex scene's BVH with the GIL released: a thread
+    woken as the build of a 600,000-triangle scene starts runs well before it ends (with the GIL
+    held, as embreex's first query builds it, it runs only once the build is over: that wait is
+    then the whole build), and the scene answers as one embreex built at its first query, to
+    the bit."""
+    from embreex.mesh_construction import TriangleMesh
+    from embreex.rtcore_scene import EmbreeScene
+
+    from core.rays import embree_build
+
+    rng = np.random.default_rng(8)
+    triangles = (rng.random((600_000, 1, 3)) + 0.01 * rng.random((600_000, 3, 3))).astype(np.float32)
+    starts, directions = rng.random((20_000, 3)).astype(np.float32), rng.normal(size=(20_000, 3)).astype(np.float32)
+    as_before = EmbreeScene()
+    TriangleMesh(as_before, triangles)
+    expected = as_before.run(starts, directions, query="INTERSECT")
+    scene = EmbreeScene()
+    TriangleMesh(scene, triangles)
+    go, woke = threading.Event(), []
+    waiter = threading.Thread(target=lambda: (go.wait(), woke.append(time.perf_counter())))
+    waiter.start()
+    start = time.perf_counter()
+    go.set()
+    assert embree_build.commit(scene) and scene.is_committed
+    end = time.perf_counter()
+    waiter.join()
+    assert woke[0] - start < 0.5 * (end - start), (woke[0] - start, end - start)
+    np.testing.assert_array_equal(scene.run(starts, directions, query="INTERSECT"), expected)
+    assert not embree_build.commit(scene)  # committed already: nothing to do
 
 
 def test_the_backend_is_chosen_named_and_checked():
