@@ -1,17 +1,19 @@
-"""Building an embreex scene's BVH without holding the GIL.
+"""An embreex scene of triangles whose geometry and BVH are made with the GIL released.
 
-Embree builds a scene's BVH when the scene is committed (``rtcCommitScene``). embreex commits at
-the scene's first query, inside Cython code that holds the GIL: 0.4 to 0.5 s on the breakfast
-room's 300,000 triangles, during which no other Python thread runs, so a bake's progress reports
-stop (docs/notes/experiments.md). ``commit`` calls ``rtcCommitScene`` of the same Embree library
-through ctypes, which releases the GIL around a foreign call, and marks the scene committed, so
-that its first query does not build it again.
+embreex's ``TriangleMesh`` copies triangles into Embree's buffers in a loop that holds the GIL
+(0.41 s for 316,000 triangles), and embreex builds the BVH (commits the scene) at its first query,
+holding it too (0.2 to 0.4 s); meanwhile no other Python thread runs, so a bake's progress reports
+stop (docs/notes/experiments.md). ``triangle_scene`` makes the ``EmbreeScene`` as embreex does
+(its device and ``RTCScene``), so that embreex traces it as any other, and fills and commits it
+through Embree's C API by ctypes, which releases the GIL around each call (NumPy's copy into
+Embree's vertex buffer releases it too): one triangle geometry, its vertices the triangles'
+corners in order (as ``TriangleMesh`` lays them out), so hits name the same triangles.
 
-That needs the scene's ``RTCScene`` pointer, which embreex keeps in a C field of its
-``EmbreeScene`` (rtcore_scene.pxd: ``scene_i``, then ``is_committed``, right after the object's
-header). The layout is checked on each scene, through the one field Python can write
-(``is_committed``); where it or the library is not what is expected, ``commit`` does nothing and
-the first query builds the BVH, as before.
+That needs the ``RTCScene`` pointer embreex keeps in a C field of its ``EmbreeScene``
+(rtcore_scene.pxd: ``scene_i``, then ``is_committed``, right after the object's header). The
+layout is checked on each scene through the one field Python can write (``is_committed``); where
+it, Embree's library or a call is not what is expected, ``triangle_scene`` returns None and the
+caller builds the scene with embreex alone.
 """
 
 from __future__ import annotations
@@ -20,14 +22,64 @@ import ctypes
 import functools
 from pathlib import Path
 
+import numpy as np
+
 _HEADER = object.__basicsize__  # reference count and type of every object
 _POINTER = ctypes.sizeof(ctypes.c_void_p)
 _PROBE = 0x5EED  # written to ``is_committed`` to find it in the object's memory
+# Embree 4's enums (rtcore_buffer.h, rtcore_common.h, rtcore_geometry.h)
+_INDEX_BUFFER, _VERTEX_BUFFER = 0, 1
+_UINT3, _FLOAT3 = 0x5003, 0x9003
+_TRIANGLE = 0
+
+
+def triangle_scene(triangles: np.ndarray):
+    """A committed embreex ``EmbreeScene`` of float32 triangles (n, 3, 3), n > 0, triangle i
+    hit as primitive i, built with the GIL released; None where that cannot be done here."""
+    api = _api()
+    if api is None or len(triangles) == 0:
+        return None
+    from embreex.rtcore_scene import EmbreeScene
+
+    scene = EmbreeScene()
+    pointer = _scene_pointer(scene)
+    if pointer is None:
+        return None
+    device = api.rtcGetSceneDevice(pointer)
+    count = len(triangles)
+    geometry = api.rtcNewGeometry(device, _TRIANGLE)
+    vertices = api.rtcSetNewGeometryBuffer(geometry, _VERTEX_BUFFER, 0, _FLOAT3, 12, 3 * count)
+    indices = api.rtcSetNewGeometryBuffer(geometry, _INDEX_BUFFER, 0, _UINT3, 12, count)
+    if not geometry or not vertices or not indices or api.rtcGetDeviceError(device):
+        return None
+    np.copyto(np.ctypeslib.as_array((ctypes.c_float * (9 * count)).from_address(vertices)), triangles.reshape(-1))
+    np.copyto(np.ctypeslib.as_array((ctypes.c_uint32 * (3 * count)).from_address(indices)),
+              np.arange(3 * count, dtype=np.uint32))
+    api.rtcCommitGeometry(geometry)
+    api.rtcAttachGeometry(pointer, geometry)
+    api.rtcReleaseGeometry(geometry)
+    api.rtcCommitScene(pointer)
+    if api.rtcGetDeviceError(device):
+        return None
+    scene.is_committed = 1
+    return scene
+
+
+def _scene_pointer(scene) -> int | None:
+    """The ``RTCScene`` of an uncommitted embreex ``scene``, or None where its layout is not the
+    one expected."""
+    flag = ctypes.c_int.from_address(id(scene) + _HEADER + _POINTER)
+    scene.is_committed = _PROBE
+    found = flag.value == _PROBE
+    scene.is_committed = 0
+    if not found or flag.value != 0:
+        return None
+    return ctypes.c_void_p.from_address(id(scene) + _HEADER).value or None
 
 
 @functools.cache
-def _commit_function():
-    """Embree's ``rtcCommitScene`` from the library embreex loaded (its wheel's copy), or None."""
+def _api():
+    """Embree's C functions from the library embreex loaded (its wheel's copy), or None."""
     try:
         import embreex
     except ImportError:
@@ -36,29 +88,21 @@ def _commit_function():
     if len(libraries) != 1:
         return None
     try:
-        function = ctypes.CDLL(str(libraries[0])).rtcCommitScene
+        library = ctypes.CDLL(str(libraries[0]))
+        signatures = {
+            "rtcGetSceneDevice": ([ctypes.c_void_p], ctypes.c_void_p),
+            "rtcGetDeviceError": ([ctypes.c_void_p], ctypes.c_int),
+            "rtcNewGeometry": ([ctypes.c_void_p, ctypes.c_int], ctypes.c_void_p),
+            "rtcSetNewGeometryBuffer": ([ctypes.c_void_p, ctypes.c_int, ctypes.c_uint, ctypes.c_int, ctypes.c_size_t,
+                                         ctypes.c_size_t], ctypes.c_void_p),
+            "rtcCommitGeometry": ([ctypes.c_void_p], None),
+            "rtcAttachGeometry": ([ctypes.c_void_p, ctypes.c_void_p], ctypes.c_uint),
+            "rtcReleaseGeometry": ([ctypes.c_void_p], None),
+            "rtcCommitScene": ([ctypes.c_void_p], None),
+        }
+        for name, (arguments, result) in signatures.items():
+            function = getattr(library, name)
+            function.argtypes, function.restype = arguments, result
     except (OSError, AttributeError):
         return None
-    function.argtypes, function.restype = [ctypes.c_void_p], None
-    return function
-
-
-def commit(scene) -> bool:
-    """Build the BVH of the uncommitted embreex ``EmbreeScene`` ``scene`` with the GIL released;
-    False (and nothing done) where its layout or Embree's library is not the one expected."""
-    function = _commit_function()
-    if function is None or scene.is_committed:
-        return False
-    address = id(scene)
-    flag = ctypes.c_int.from_address(address + _HEADER + _POINTER)
-    scene.is_committed = _PROBE
-    found = flag.value == _PROBE
-    scene.is_committed = 0
-    if not found or flag.value != 0:
-        return False
-    pointer = ctypes.c_void_p.from_address(address + _HEADER).value
-    if not pointer:
-        return False
-    function(pointer)
-    scene.is_committed = 1
-    return True
+    return library

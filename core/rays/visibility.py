@@ -225,11 +225,13 @@ def _traced(backend: str, triangles: np.ndarray):
     """A scene of ``backend`` over float32 triangles (n, 3, 3), ready to trace."""
     if backend == "numpy":
         return NumpyTracer(triangles)
+    built = embree_build.triangle_scene(triangles)
+    if built is not None:
+        return built
     embree_scene, triangle_mesh = _import_embree()
     scene = embree_scene()
     triangle_mesh(scene, triangles)
-    if not embree_build.commit(scene):
-        # embreex builds the BVH on the first query, holding the GIL: do it now, while the bake
-        # says it is preparing rays, rather than inside the first block of work
-        scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
+    # embreex builds the BVH on the first query, holding the GIL: do it now, while the bake says it
+    # is preparing rays, rather than inside the first block of work
+    scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
     return scene

@@ -51,7 +51,7 @@ def _buried(points: np.ndarray, normals: np.ndarray, visibility: Visibility) -> 
     in a room most points see a front along their normal, so most of the ring is never cast."""
     patches, samples = points.shape[:2]
     origins = points.reshape(-1, 3)
-    lift = np.repeat(normals, samples, axis=0)
+    lift = normals[np.arange(patches * samples) // samples]  # not np.repeat, which holds the GIL
     candidates = np.flatnonzero(_meets_a_back(origins, lift, lift, visibility))
     if len(candidates) == 0:
         return np.zeros((patches, samples), dtype=bool)
@@ -60,8 +60,8 @@ def _buried(points: np.ndarray, normals: np.ndarray, visibility: Visibility) -> 
     ring = (np.cos(PROBE_ANGLE) * lift[candidates][:, None]
             + np.sin(PROBE_ANGLE) * (np.cos(angles)[None, :, None] * tangent[:, None]
                                      + np.sin(angles)[None, :, None] * bitangent[:, None]))  # (k, RING, 3)
-    back = _meets_a_back(np.repeat(origins[candidates], RING, axis=0), ring.reshape(-1, 3),
-                         np.repeat(lift[candidates], RING, axis=0), visibility)
+    each = candidates[np.arange(len(candidates) * RING) // RING]
+    back = _meets_a_back(origins[each], ring.reshape(-1, 3), lift[each], visibility)
     buried = np.zeros(patches * samples, dtype=bool)
     buried[candidates] = back.reshape(-1, RING).all(axis=1)
     return buried.reshape(patches, samples)

@@ -292,12 +292,12 @@ def test_threads_trace_side_by_side_and_every_ray_is_counted(backend):
 
 
 @needs_embree
-def test_embree_builds_its_bvh_while_other_threads_run_and_traces_as_before():
-    """``embree_build.commit`` builds an embreex scene's BVH with the GIL released: a thread
-    woken as the build of a 600,000-triangle scene starts runs well before it ends (with the GIL
-    held, as embreex's first query builds it, it runs only once the build is over: that wait is
-    then the whole build), and the scene answers as one embreex built at its first query, to
-    the bit."""
+def test_embree_scenes_are_built_while_other_threads_run_and_trace_as_embreex_builds_them():
+    """``embree_build.triangle_scene`` fills an embreex scene and builds its BVH with the GIL
+    released: a thread woken as it starts on 600,000 triangles runs well before it ends (with
+    the GIL held, as embreex's ``TriangleMesh`` and first query build it, the thread runs only
+    once the build is over: its wait is then the whole build), and the scene answers as one
+    embreex built, to the bit, on both queries."""
     from embreex.mesh_construction import TriangleMesh
     from embreex.rtcore_scene import EmbreeScene
 
@@ -306,22 +306,22 @@ def test_embree_builds_its_bvh_while_other_threads_run_and_traces_as_before():
     rng = np.random.default_rng(8)
     triangles = (rng.random((600_000, 1, 3)) + 0.01 * rng.random((600_000, 3, 3))).astype(np.float32)
     starts, directions = rng.random((20_000, 3)).astype(np.float32), rng.normal(size=(20_000, 3)).astype(np.float32)
-    as_before = EmbreeScene()
-    TriangleMesh(as_before, triangles)
-    expected = as_before.run(starts, directions, query="INTERSECT")
-    scene = EmbreeScene()
-    TriangleMesh(scene, triangles)
+    reach = rng.random(20_000).astype(np.float32)
+    as_embreex = EmbreeScene()
+    TriangleMesh(as_embreex, triangles)
     go, woke = threading.Event(), []
     waiter = threading.Thread(target=lambda: (go.wait(), woke.append(time.perf_counter())))
     waiter.start()
     start = time.perf_counter()
     go.set()
-    assert embree_build.commit(scene) and scene.is_committed
+    scene = embree_build.triangle_scene(triangles)
     end = time.perf_counter()
     waiter.join()
+    assert scene is not None and scene.is_committed
     assert woke[0] - start < 0.5 * (end - start), (woke[0] - start, end - start)
-    np.testing.assert_array_equal(scene.run(starts, directions, query="INTERSECT"), expected)
-    assert not embree_build.commit(scene)  # committed already: nothing to do
+    for query, distances in (("INTERSECT", None), ("OCCLUDED", reach)):
+        np.testing.assert_array_equal(scene.run(starts, directions, dists=distances, query=query),
+                                      as_embreex.run(starts, directions, dists=distances, query=query))
 
 
 def test_the_backend_is_chosen_named_and_checked():

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from core.util import spatial
+from core.util.spatial import ranks, runs
 
 
 def random_boxes(rng: np.random.Generator, count: int) -> tuple[np.ndarray, np.ndarray]:
@@ -63,3 +64,14 @@ def test_points_in_boxes_finds_exactly_the_points_inside_and_applies_the_filter(
     first, second = spatial.points_in_boxes(points, low, high, even_sum)
     assert all(seen)
     assert set(zip(first, second)) == {(i, j) for i, j in expected if (i + j) % 2 == 0}
+
+
+def test_runs_and_ranks_are_np_repeat_s():
+    """``runs`` and ``ranks`` (made without np.repeat, which holds the GIL) against np.repeat,
+    with empty runs first, between and last."""
+    rng = np.random.default_rng(4)
+    for counts in (np.array([0, 0, 3, 0, 2, 0]), np.zeros(0, dtype=np.int64), np.zeros(3, dtype=np.int64),
+                   rng.integers(0, 5, 10_000)):
+        np.testing.assert_array_equal(runs(counts), np.repeat(np.arange(len(counts)), counts))
+        np.testing.assert_array_equal(ranks(counts), np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts,
+                                                                                         counts))
