@@ -37,7 +37,7 @@ from ..rays.visibility import MAX_LAYERS, Visibility
 from ..util import parallel, rows
 from ..util.geometry import barycentric, cosine_directions, uniform_points
 from ..util.progress import Report, quiet
-from ..util.spatial import ranks
+from ..util.spatial import ranks, runs
 
 # Particles or gather points per block of work on the thread pool.
 PARTICLES_PER_BLOCK = 1 << 15
@@ -197,7 +197,7 @@ def trace(mesh: Discretization, visibility: Visibility, unshot: np.ndarray, refl
     cumulative = np.cumsum(weights) / total * particles
     offset = np.random.default_rng([seed, 0]).random()
     counts = np.diff(np.floor(np.concatenate([[0.0], cumulative]) + offset)).astype(np.int64)
-    sources = np.repeat(np.arange(mesh.patch_count), counts)
+    sources = runs(counts)  # np.repeat(np.arange(P), counts), without holding the GIL
     power = np.zeros_like(unshot)
     np.divide(mesh.patch_areas[:, None] * unshot * total, weights[:, None] * particles, out=power,
               where=weights[:, None] > 0)
