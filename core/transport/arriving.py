@@ -4,8 +4,6 @@ Every stage that needs light at points asks one ``ArrivingLight``."""
 
 from __future__ import annotations
 
-import hashlib
-
 import numpy as np
 
 from ..mesh.discretize import Discretization
@@ -19,7 +17,7 @@ class ArrivingLight:
 
     ``intensities`` (S, 3): the light sources' (``DirectLighting``; default: their own). ``kept``:
     a dict in which the form factors to the emitters and the lights' shadows at the points asked
-    for ``sharp`` are kept, to be found again by a re-solve asking at the same points."""
+    for ``sharp`` are kept, point by point, to be found again by a re-solve asking there."""
 
     def __init__(self, engine: FormFactorEngine, direct: DirectLighting, channels: int,
                  intensities: np.ndarray | None = None, kept: dict | None = None) -> None:
@@ -65,18 +63,35 @@ class ArrivingLight:
         return lit[:, : self.channels]
 
     def _sharp_factors(self, points: np.ndarray, normals: np.ndarray) -> tuple:
-        """The emitting patches, the form factors (m, e) to them and the lights' ``factors``
-        (m, L, 3) at points (m, 3) facing normals (m, 3), kept in ``kept`` when there is one."""
-        key = None
-        if self.kept is not None:
-            key = hashlib.blake2b(np.ascontiguousarray(points).tobytes() + np.ascontiguousarray(normals).tobytes(),
-                                  digest_size=16).digest()
-            if key in self.kept:
-                return self.kept[key]
-        factors = (*self.engine.emitter_form_factors(points, normals), self.direct.light_factors_at(points, normals))
-        if key is not None:
-            self.kept[key] = factors
-        return factors
+        """The emitting patches (e,), the form factors (m, e) to them and the lights' ``factors``
+        (m, L, 3) at points (m, 3) facing normals (m, 3). With ``kept``, they are kept per point
+        (its position and normal, to the bit): a re-solve asks at many of the same points, but in
+        other sets (the touching pairs read are those of the patches lit then), and measures only
+        the points not asked at before, while the emitting patches are the same."""
+        if self.kept is None or len(points) == 0:
+            return (*self.engine.emitter_form_factors(points, normals), self.direct.light_factors_at(points, normals))
+        emitters = np.flatnonzero(self.mesh.patch_emission.any(axis=1))
+        if not np.array_equal(self.kept.get("emitters", emitters), emitters):
+            self.kept.clear()
+        keys = np.ascontiguousarray(np.concatenate([points, normals], axis=1), dtype=np.float64)
+        keys = keys.view(f"V{keys.shape[1] * keys.itemsize}").ravel()
+        known = self.kept.get("points", keys[:0])
+        place = np.minimum(np.searchsorted(known, keys), max(len(known) - 1, 0))
+        new = np.ones(len(keys), dtype=bool) if len(known) == 0 else known[place] != keys
+        if new.any():
+            added, first = np.unique(keys[new], return_index=True)
+            rows = np.flatnonzero(new)[first]
+            _, to_emitters = self.engine.emitter_form_factors(points[rows], normals[rows])
+            light_factors = self.direct.light_factors_at(points[rows], normals[rows])
+            merged = np.concatenate([known, added])
+            order = np.argsort(merged, kind="stable")
+            self.kept["points"] = merged[order]
+            for name, values in (("to_emitters", to_emitters), ("light_factors", light_factors)):
+                self.kept[name] = np.concatenate([self.kept[name], values])[order] if name in self.kept else values
+            self.kept["emitters"] = emitters
+            known = self.kept["points"]
+        place = np.searchsorted(known, keys)
+        return emitters, self.kept["to_emitters"][place], self.kept["light_factors"][place]
 
     def gathered(self, points: np.ndarray, normals: np.ndarray, radiosity: np.ndarray,
                  report: Report = quiet) -> np.ndarray:

@@ -185,3 +185,40 @@ def test_colours_that_split_a_merged_flat_region_bake_afresh():
     reflectance = np.full((count, 3), 0.5)
     reflectance[5] = 0.2
     assert "inside a flat region" in session.change(recoloured(scene, reflectance=reflectance))
+
+
+def test_the_sharp_light_is_kept_point_by_point_and_measured_only_where_new():
+    """``ArrivingLight.sharp`` with ``kept``: asked at a second set of points that shares some
+    with the first (in another order), it measures the form factors to the emitters and the
+    lights' shadows only at the new points, and gives at every point what a light without
+    ``kept`` measures afresh (the truth), to the bit; emitters that change clear what was kept."""
+    from core.mesh.discretize import discretize
+    from core.transport.arriving import ArrivingLight
+    from core.transport.direct import DirectLighting
+    from core.transport.formfactors import FormFactorEngine
+
+    scene = dataclasses.replace(lit_room(), lights=(PointLight((0.3, 0.6, 0.8), (1.0, 0.9, 0.8)),))
+    mesh = discretize(scene, 0.25)
+    engine = FormFactorEngine(mesh, "raycast", 64, 4, 0)
+    direct = DirectLighting(scene.lights, scene.sky, engine.visibility, 4, 0, None)
+    kept, asked = {}, []
+    measure = engine.emitter_form_factors
+    engine.emitter_form_factors = lambda points, normals: (asked.append(len(points)), measure(points, normals))[1]
+    light = ArrivingLight(engine, direct, 3, kept=kept)
+    afresh = ArrivingLight(engine, direct, 3)
+    points, normals = mesh.node_points, mesh.node_normals
+    first, second = np.arange(0, len(points), 2), np.arange(len(points) - 1, -1, -3)
+    np.testing.assert_array_equal(light.sharp(points[first], normals[first]),
+                                  afresh.sharp(points[first], normals[first]))
+    new = np.setdiff1d(second, first)
+    asked.clear()
+    np.testing.assert_array_equal(light.sharp(points[second], normals[second]),
+                                  afresh.sharp(points[second], normals[second]))
+    assert asked[0] == len(new) and len(new) < len(second)
+    assert len(kept["points"]) == len(np.union1d(first, second))
+    brighter = dataclasses.replace(mesh, patch_emission=np.where(mesh.patch_emission.any(axis=1, keepdims=True),
+                                                                 mesh.patch_emission, 0.5))
+    light.engine.mesh = brighter
+    asked.clear()
+    light.sharp(points[first], normals[first])
+    assert asked[0] == len(first) and len(kept["points"]) == len(first)
