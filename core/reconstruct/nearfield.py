@@ -118,7 +118,10 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
     ``interpolate`` only the patches whose corners all have output nodes are read as linear (no
     interpolation nodes, as beyond GATHER_BUDGET)."""
     node_count = mesh.node_count
-    corner_key, corner_output = _patch_corner_nodes(scene, mesh)
+    corner_output = _corner_outputs(mesh)
+    # without interpolation nodes no corner's key is read (once the pairs are whole, no corner
+    # lacks an output node): one key for all
+    corner_key = _corner_keys(scene, mesh) if interpolate else np.zeros_like(corner_output)
     receivers, patches, factors = _near_pairs(mesh.node_points, mesh.node_normals, _node_sizes(scene, mesh), mesh, lit,
                                               form_factors)
     # interpolation nodes at the corners of those patches that have no output node, unless
@@ -240,18 +243,22 @@ def _receiver_surfaces(near: NearField, mesh: Discretization, channels: int) -> 
             np.concatenate([mesh.node_reflectance, mesh.patch_reflectance[near.owner]])[:, :channels])
 
 
-def _patch_corner_nodes(scene: Scene, mesh: Discretization) -> tuple[np.ndarray, np.ndarray]:
-    """(P, 3) key of the surface point at each patch corner (equal for the corners of patches of
+def _corner_keys(scene: Scene, mesh: Discretization) -> np.ndarray:
+    """(P, 3) key of the surface point at each patch corner: equal for the corners of patches of
     one flat surface, side and material that meet there, unless a contact line may run between
-    them: radiosity jumps across one), and (P, 3) the output node there, or
-    -1: a front patch's corner at a vertex of its own panel has that vertex's node."""
+    them (radiosity jumps across one)."""
     corners = mesh.patch_corners.reshape(-1, 3)
     step = max(scene.extent, np.finfo(float).tiny) * CORNER_WELD
     position = np.round((corners - corners.min(axis=0)) / step)
     patch = np.repeat(np.arange(mesh.patch_count), 3)
     surface = np.concatenate([np.round(mesh.patch_normals * 1e6), mesh.patch_reflectance, mesh.patch_emission,
                               mesh.patch_piece[:, None]], axis=1)[patch]
-    corner_key = rows.labels(np.concatenate([position, surface], axis=1))
+    return rows.labels(np.concatenate([position, surface], axis=1)).reshape(-1, 3)
+
+
+def _corner_outputs(mesh: Discretization) -> np.ndarray:
+    """(P, 3) the output node at each patch corner, or -1: a front patch's corner at a vertex of
+    its own panel has that vertex's node."""
     output = np.full((mesh.patch_count, 3), -1)
     front = mesh.front_patch_count
     triangle = mesh.patch_triangle[:front]
@@ -262,7 +269,7 @@ def _patch_corner_nodes(scene: Scene, mesh: Discretization) -> tuple[np.ndarray,
     found = at_vertex.any(axis=2)
     node = mesh.panel_node[triangle][np.arange(front)[:, None], at_vertex.argmax(axis=2)]
     output[:front] = np.where(found & (node >= 0), node, -1)
-    return corner_key.reshape(-1, 3), output
+    return output
 
 
 def _node_sizes(scene: Scene, mesh: Discretization) -> np.ndarray:
