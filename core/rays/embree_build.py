@@ -48,9 +48,12 @@ def triangle_scene(triangles: np.ndarray):
     device = api.rtcGetSceneDevice(pointer)
     count = len(triangles)
     geometry = api.rtcNewGeometry(device, _TRIANGLE)
+    if not geometry:
+        return None
     vertices = api.rtcSetNewGeometryBuffer(geometry, _VERTEX_BUFFER, 0, _FLOAT3, 12, 3 * count)
     indices = api.rtcSetNewGeometryBuffer(geometry, _INDEX_BUFFER, 0, _UINT3, 12, count)
-    if not geometry or not vertices or not indices or api.rtcGetDeviceError(device):
+    if not vertices or not indices or api.rtcGetDeviceError(device):
+        api.rtcReleaseGeometry(geometry)
         return None
     np.copyto(np.ctypeslib.as_array((ctypes.c_float * (9 * count)).from_address(vertices)), triangles.reshape(-1))
     np.copyto(np.ctypeslib.as_array((ctypes.c_uint32 * (3 * count)).from_address(indices)),
