@@ -4,7 +4,8 @@ answer the same queries (``EmbreeScene.run``) on the same float32 triangles.
 
 The triangles are re-centred and scaled to unit size before they become float32 for Embree, and ray offsets are a fixed fraction of that unit size, so results do not
 depend on the scene's scale. embreex releases the GIL while it traces, so callers run batches from several threads (the
-NumPy tracer is safe there too, but gains little: see ``numpy_tracer``).
+NumPy tracer is safe there too, but gains little: see ``numpy_tracer``); Embree's scenes are
+filled and built with the GIL released too (``embree_build``), so other threads run meanwhile.
 """
 
 from __future__ import annotations

@@ -76,8 +76,9 @@ class ArrivingLight:
         keys = np.ascontiguousarray(np.concatenate([points, normals], axis=1), dtype=np.float64)
         keys = keys.view(f"V{keys.shape[1] * keys.itemsize}").ravel()
         known = self.kept.get("points", keys[:0])
-        place = np.minimum(np.searchsorted(known, keys), max(len(known) - 1, 0))
-        new = np.ones(len(keys), dtype=bool) if len(known) == 0 else known[place] != keys
+        place = np.searchsorted(known, keys)
+        new = place >= len(known)
+        new[~new] = known[place[~new]] != keys[~new]
         if new.any():
             added, first = np.unique(keys[new], return_index=True)
             rows = np.flatnonzero(new)[first]
@@ -89,8 +90,7 @@ class ArrivingLight:
             for name, values in (("to_emitters", to_emitters), ("light_factors", light_factors)):
                 self.kept[name] = np.concatenate([self.kept[name], values])[order] if name in self.kept else values
             self.kept["emitters"] = emitters
-            known = self.kept["points"]
-        place = np.searchsorted(known, keys)
+            place = np.searchsorted(self.kept["points"], keys)
         return emitters, self.kept["to_emitters"][place], self.kept["light_factors"][place]
 
     def gathered(self, points: np.ndarray, normals: np.ndarray, radiosity: np.ndarray,
