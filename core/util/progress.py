@@ -86,7 +86,7 @@ class _Relay:
     """What work on a worker thread last reported, for the caller's thread to pass on."""
 
     def __init__(self) -> None:
-        self.latest = (0.0, "starting")  # fraction and message
+        self.first = self.latest = (0.0, "starting")  # fraction and message
         self.reports = 0  # counted after ``latest`` is set
         self.cancelled = False
         self.news = threading.Event()  # a report not yet passed on, or the work's end
@@ -95,9 +95,21 @@ class _Relay:
         """The work's progress callback: raises BakeCancelled once the caller has cancelled."""
         if self.cancelled:
             raise BakeCancelled(f"cancelled before {message}")
+        if self.reports == 0:
+            self.first = (fraction, message)
         self.latest = (fraction, message)
         self.reports += 1
         self.news.set()
+
+    def pass_on(self, callback: ProgressCallback, passed: int) -> int:
+        """Call ``callback`` with the latest report, preceded by the work's first one (where its
+        bar starts) if that was never passed on; return the reports passed on so far."""
+        reports, latest = self.reports, self.latest
+        unheard_start = [self.first] if passed == 0 and latest is not self.first else []
+        for fraction, message in unheard_start + [latest]:
+            if callback(fraction, message) is False:
+                raise BakeCancelled(f"cancelled during {message}")
+        return reports
 
 
 def relayed(work: Callable[[ProgressCallback | None], Result], callback: ProgressCallback | None) -> Result:
@@ -130,17 +142,15 @@ def relayed(work: Callable[[ProgressCallback | None], Result], callback: Progres
             relay.news.wait(REPORT_INTERVAL)
             relay.news.clear()
             if worker.is_alive():
-                passed = relay.reports
-                if callback(*relay.latest) is False:
-                    raise BakeCancelled(f"cancelled during {relay.latest[1]}")
+                passed = relay.pass_on(callback, passed)
     except BaseException:  # a cancel, or an interrupt of the caller's thread
         relay.cancelled = True
         _abandoned.append(worker)
         raise
     if "error" in outcome:
         raise outcome["error"]
-    if relay.reports != passed and callback(*relay.latest) is False:  # the last, as "done"
-        raise BakeCancelled(f"cancelled during {relay.latest[1]}")
+    if relay.reports != passed:  # the last, as "done"
+        relay.pass_on(callback, passed)
     return outcome["result"]
 
 

@@ -1,6 +1,7 @@
 """progress.heartbeat: the thread pool's waits keep a bake's caller informed and cancellable;
 progress.relayed: so does work inside one long step that cannot report."""
 
+import sys
 import time
 
 import numpy as np
@@ -90,6 +91,28 @@ def test_relayed_work_is_heard_while_it_is_inside_one_long_step():
     assert np.diff(times).max() <= 0.2
     assert calls[-1][1:] == (1.0, "done")
     assert {(fraction, message) for _, fraction, message in calls[:-1]} <= {(0.0, "starting"), (0.5, "before the long step")}
+
+
+def test_relayed_work_is_heard_from_its_first_report_even_when_the_caller_wakes_late():
+    """The work reports its start and its middle before the caller's thread runs again (the
+    interpreter switches threads only after 10 s here): the caller still hears the start first,
+    so its bar rises from where the work's bar starts, then the middle and the end."""
+    calls = []
+
+    def work(report):
+        report(0.0, "start")
+        report(0.5, "middle")
+        time.sleep(2 * REPORT_INTERVAL)
+        report(1.0, "done")
+
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(10.0)
+    try:
+        relayed(work, lambda fraction, message: calls.append((fraction, message)))
+    finally:
+        sys.setswitchinterval(interval)
+    assert calls[0] == (0.0, "start") and calls[-1] == (1.0, "done")
+    assert set(calls) == {(0.0, "start"), (0.5, "middle"), (1.0, "done")}
 
 
 def test_a_cancel_during_a_long_step_is_heard_at_once_and_the_work_stops_at_its_next_report():
