@@ -217,8 +217,17 @@ class _Levels:
                                     owners=mesh.patch_triangle[: mesh.front_patch_count], casting=mesh.front_casts,
                                     opacity=mesh.front_opacity)
         particles = montecarlo.particle_count(mesh.patch_count, settings.monte_carlo_rays)
-        future = stages.run("tracing particles", (0.0, 0.5), montecarlo.trace, mesh, visibility, state.unshot,
-                            mesh.patch_reflectance[:, : self.channels], particles, settings.seed, timer="monte_carlo")
+        reflectance = mesh.patch_reflectance[:, : self.channels]
+        traced = self.kept.get("traced")  # a re-solve's last trace: (unshot, reflectance, X)
+        scale = None
+        if traced is not None and np.array_equal(traced[1], reflectance):
+            scale = montecarlo.channel_scale(traced[0], state.unshot)
+        if scale is not None:  # only the lights' colour or strength changed: the same particles, scaled
+            future = traced[2] * scale
+        else:
+            future = stages.run("tracing particles", (0.0, 0.5), montecarlo.trace, mesh, visibility, state.unshot,
+                                reflectance, particles, settings.seed, timer="monte_carlo")
+            self.kept["traced"] = (state.unshot.copy(), reflectance.copy(), future)
         radiosity = state.radiosity[: mesh.patch_count] - state.unshot + future
         self.stats["monte_carlo"] = {"particles": particles, "gather_rays": settings.monte_carlo_rays}
         if engine.method == "hemicube":  # the estimate keeps the unshot light's bound

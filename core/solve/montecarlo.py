@@ -188,7 +188,11 @@ def trace(mesh: Discretization, visibility: Visibility, unshot: np.ndarray, refl
     ``reflectance`` rho (P, C), from ``particles`` paths (see the module docstring), the power
     arriving read over pools of patches (``pooled``)."""
     surfaces = Surfaces(mesh, visibility)
-    weights = mesh.patch_areas * np.abs(unshot).sum(axis=1)
+    # each channel's share of the power counts alike, whatever its scale: light scaled per channel
+    # (a light's colour or strength) sends the same particles, so X scales with it (``channel_scale``)
+    power_shares = mesh.patch_areas[:, None] * np.abs(unshot)
+    channel_power = power_shares.sum(axis=0)
+    weights = (power_shares / np.where(channel_power > 0, channel_power, 1.0)).sum(axis=1)
     total = weights.sum()
     channels = unshot.shape[1]
     if particles <= 0 or total <= 0:
@@ -215,20 +219,23 @@ def trace(mesh: Discretization, visibility: Visibility, unshot: np.ndarray, refl
         weight = power[patch]
         normal = mesh.patch_normals[patch]
         point = uniform_points(mesh.patch_corners[patch], rng.random((len(patch), 2)))
-        arrived = np.zeros((mesh.patch_count, channels + 1))
+        landings, brought = [], []  # per bounce; summed per patch once, not once per bounce
         while len(patch):
             directions = cosine_directions(normal, rng.random((len(patch), 2)))
             patch, point = surfaces.hit(point, directions, normal, rng)
             landed = patch >= 0
             patch, point, weight = patch[landed], point[landed], weight[landed]
-            brought = weight / stops[patch, None]
-            for channel in range(channels):
-                arrived[:, channel] += np.bincount(patch, brought[:, channel], minlength=mesh.patch_count)
-            arrived[:, channels] += np.bincount(patch, minlength=mesh.patch_count)
+            landings.append(patch)
+            brought.append(weight / stops[patch, None])
             survives = rng.random(len(patch)) < survival[patch]
             patch, point, weight = patch[survives], point[survives], weight[survives]
             weight = weight * reflecting[patch] / survival[patch, None]
             normal = mesh.patch_normals[patch]
+        landings, brought = np.concatenate(landings), np.concatenate(brought)
+        arrived = np.empty((mesh.patch_count, channels + 1))
+        for channel in range(channels):
+            arrived[:, channel] = np.bincount(landings, brought[:, channel], minlength=mesh.patch_count)
+        arrived[:, channels] = np.bincount(landings, minlength=mesh.patch_count)
         return arrived
 
     arrived = np.zeros((mesh.patch_count, channels + 1))
@@ -236,6 +243,16 @@ def trace(mesh: Discretization, visibility: Visibility, unshot: np.ndarray, refl
         arrived += part
         report((done + 1) / len(starts))
     return unshot + reflectance * pooled(mesh, arrived[:, :channels], arrived[:, channels])
+
+
+def channel_scale(before: np.ndarray, after: np.ndarray, tolerance: float = 1e-9) -> np.ndarray | None:
+    """(C,) the factors k with ``after`` = ``before`` k, channel by channel (P, C), to ``tolerance``
+    of the largest of ``after``; None if there are none. ``trace`` of ``after`` is then ``trace``
+    of ``before`` times k, to rounding: its particles are the same, their power scaled."""
+    norms = (before * before).sum(axis=0)
+    scale = np.divide((before * after).sum(axis=0), norms, out=np.zeros(before.shape[1]), where=norms > 0)
+    largest = np.abs(after).max(initial=0.0)
+    return scale if np.abs(after - before * scale).max(initial=0.0) <= tolerance * largest else None
 
 
 def pooled(mesh: Discretization, arrived: np.ndarray, hits: np.ndarray, min_hits: float = MIN_HITS) -> np.ndarray:

@@ -10,7 +10,7 @@ import pytest
 from core import Scene, bake
 from core.transport.analytic import point_to_triangle
 from core.mesh.discretize import discretize
-from core.solve.montecarlo import MIN_HITS, cosine_directions, gather, pooled, trace, uniform_points
+from core.solve.montecarlo import MIN_HITS, channel_scale, cosine_directions, gather, pooled, trace, uniform_points
 from core.rays.visibility import Visibility
 from tests.core.scenes import box, grid, lit_room, merge, quad, uniform
 
@@ -53,6 +53,29 @@ def test_particles_in_a_furnace_give_emission_over_one_minus_reflectance(reflect
     np.testing.assert_allclose(mean, expected, rtol=0.01)
     np.testing.assert_allclose(future, expected, rtol=0.10)
     assert np.allclose(future[:, 0], future[:, 1]) and np.allclose(future[:, 1], future[:, 2])
+
+
+def test_light_scaled_per_channel_sends_the_same_particles_with_their_power_scaled():
+    """A light's colour or strength changed scales the unshot light by k per channel. The particles
+    are chosen by each channel's share of the power, not its size, so trace(U k) is trace(U) k to
+    rounding, even for channels 1e6 apart (by the power summed over channels, the dim channel
+    would be sampled by other particles); ``channel_scale`` finds k, and nothing for light that
+    changed otherwise (one patch's in one channel)."""
+    scene = lit_room()
+    mesh = discretize(scene, 0.25)
+    rng = np.random.default_rng(4)
+    unshot = rng.random((mesh.patch_count, 3)) * (rng.random((mesh.patch_count, 1)) < 0.3)
+    scale = np.array([1e-3, 1.0, 1e3])
+    before = trace(mesh, rays_of(mesh), unshot, mesh.patch_reflectance, 20_000)
+    after = trace(mesh, rays_of(mesh), unshot * scale, mesh.patch_reflectance, 20_000)
+    np.testing.assert_allclose(after, before * scale, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(channel_scale(unshot, unshot * scale), scale, rtol=1e-12)
+    other = unshot * scale
+    other[np.flatnonzero(unshot[:, 0])[0], 0] *= 1.5
+    assert channel_scale(unshot, other) is None
+    dark = unshot.copy()
+    dark[:, 2] = 0.0
+    assert channel_scale(dark, dark * scale) is not None and channel_scale(dark, unshot) is None
 
 
 def test_a_closed_box_of_uniform_value_gathers_exactly_that_value():

@@ -79,6 +79,27 @@ def test_a_resolve_of_new_colours_equals_a_fresh_bake(solver, extra):
     assert_same_colours(session.bake(scene), first)  # and back
 
 
+def test_a_light_of_another_colour_re_solves_monte_carlo_without_tracing_again():
+    """The room's one emitter turns warmer and brighter: every light in the scene is scaled per
+    channel, so are Monte Carlo's unshot light and its answer (its particles chosen by each
+    channel's share: test_montecarlo.py). The re-solve scales the particles' answer instead of
+    tracing them again, and gives what a fresh bake traces, to rounding."""
+    scene = lit_room()
+    knobs = KNOBS | {"monte_carlo_rays": 16}
+    session = BakeSession(**knobs)
+    session.bake(scene)
+    warmer = recoloured(scene, emission=scene.emission * [3.0, 1.0, 0.2])
+    again = session.bake(warmer)
+    assert again.stats["resolved"] and "monte_carlo" not in again.stats["seconds"]
+    assert_same_colours(again, bake(warmer, **knobs))
+    recoloured_walls = scene.reflectance.copy()
+    recoloured_walls[2:4] = [0.1, 0.2, 0.7]
+    changed = recoloured(warmer, reflectance=recoloured_walls)  # the particles' paths change: traced again
+    again = session.bake(changed)
+    assert again.stats["resolved"] and "monte_carlo" in again.stats["seconds"]
+    assert_same_colours(again, bake(changed, **knobs), NEW_SAMPLES)
+
+
 def test_the_light_of_each_source_alone_adds_up_to_all_of_it():
     """Light groups: the bake is linear in the sources, so the re-solves with one source at a time
     add up to the bake with all of them (emitters, the point light, the sun, the sky and the
