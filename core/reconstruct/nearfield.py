@@ -42,8 +42,9 @@ from ..util.progress import heartbeat
 
 NEAR_REACH = 1.25  # a patch is near a node whose point lies within this many longest edges of its centroid
 # Where a node looks on a patch: the patch split into 4 x 4 pieces, and where one piece holds
-# more than PEAKED of the form factor, the 2 it sees most of split again (46 exact form factors
-# per pair): about as accurate as a uniform 16 x 16 split (256 per pair; docs/notes/experiments.md).
+# more than PEAKED of the form factor, the 2 it sees most of split again (46 pieces per pair): on
+# Sponza's near pairs 2.3 % of the triangle from a 30 x 30 split's reading point (F-weighted),
+# against 1.2 % for a uniform 16 x 16 split (256 per pair; docs/notes/experiments.md).
 QUADRATURE_DIVISIONS = 4
 REFINED = 2
 PEAKED = 0.25
@@ -51,7 +52,12 @@ PEAKED = 0.25
 # F (lambda V - B_q), moves by at most F times the spread of the patch's corner colours, and they
 # are half of Sponza's pairs but 0.7 % of its near form factor (docs/notes/experiments.md).
 QUADRATURE_FLOOR = 1e-3
-PAIRS_PER_BLOCK = 1024  # pairs per block of that quadrature, spread over the threads
+# Pieces farther than this many of their longest edges from the point are weighed by the point rule
+# at their centroid, the nearer ones exactly: on Sponza's near pairs the reading points are as far
+# from those of a 30 x 30 exact split as with every piece exact (2.3 % of the triangle), in half the
+# time (docs/notes/experiments.md).
+EXACT_WITHIN = 2.0
+PAIRS_PER_BLOCK = 4096  # pairs per block of that quadrature, spread over the threads
 RAY_PAIRS_PER_BLOCK = 1 << 14  # pairs per block of ray-cast form factors, spread over the threads
 # Corners of different patches closer than this fraction of the scene's extent share a node.
 CORNER_WELD = 1e-7
@@ -119,17 +125,20 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
     interpolation nodes, as beyond GATHER_BUDGET)."""
     node_count = mesh.node_count
     corner_output = _corner_outputs(mesh)
-    # without interpolation nodes no corner's key is read (once the pairs are whole, no corner
-    # lacks an output node): one key for all
-    corner_key = _corner_keys(scene, mesh) if interpolate else np.zeros_like(corner_output)
     receivers, patches, factors = _near_pairs(mesh.node_points, mesh.node_normals, _node_sizes(scene, mesh), mesh, lit,
                                               form_factors)
     # interpolation nodes at the corners of those patches that have no output node, unless
     # gathering at them all would cost more than GATHER_BUDGET point-patch pairs (then only
-    # patches whose corners are all output nodes are read as linear)
+    # patches whose corners are all output nodes are read as linear); there are at least as many
+    # as the points those corners are at, which are cheaper to count than the corners' surfaces
     needed = np.unique(patches)
     missing = corner_output[needed] < 0
-    if not interpolate or len(np.unique(corner_key[needed][missing])) * radiosity.any(axis=1).sum() > GATHER_BUDGET:
+    shining = radiosity.any(axis=1).sum()
+    interpolate = interpolate and _corner_points(scene, mesh, mesh.patch_corners[needed][missing]) * shining <= GATHER_BUDGET
+    # without interpolation nodes no corner's key is read (once the pairs are whole, no corner
+    # lacks an output node): one key for all
+    corner_key = _corner_keys(scene, mesh) if interpolate else np.zeros_like(corner_output)
+    if not interpolate or len(np.unique(corner_key[needed][missing])) * shining > GATHER_BUDGET:
         whole = (corner_output[patches] >= 0).all(axis=1)
         receivers, patches, factors = receivers[whole], patches[whole], factors[whole]
         needed = np.unique(patches)
@@ -196,20 +205,23 @@ def corrected_lighting(near: NearField, mesh: Discretization, radiosity: np.ndar
     count = len(gathered)
     entries, entry = np.unique(near.receiver[:, None] * count + near.corner_receiver, return_inverse=True)
     weights = np.bincount(entry.reshape(-1), (near.form_factor[:, None] * near.weights).reshape(-1))
-    row, column = entries // count, entries % count
+    row, column = entries // count, entries % count  # sorted by row
     base, transfer = np.empty((channels, count)), np.empty((channels, len(entries)))  # channels contiguous
     for c in range(channels):
         base[c] = gathered[:, c] + np.bincount(row, weights * emission[column, c], count) \
             - np.bincount(near.receiver, near.form_factor * radiosity[near.patch, c], count)
         transfer[c] = weights * reflectance[column, c]
+    rows_with_entries, row_start = np.unique(row, return_index=True)
     lighting = gathered.T
     for iteration in range(1, MAX_ITERATIONS + 1):
         heartbeat()
         # Light is never negative: where the gathered G holds less of the near patches than their
         # exact form factors give them (a noisy Monte Carlo gather, whose rays see them otherwise),
         # taking out the constant part can overshoot; the map clamped at zero is still a contraction.
-        updated = np.maximum(base + np.stack([np.bincount(row, transfer[c] * lighting[c][column], count)
-                                              for c in range(channels)]), 0.0)
+        updated = base.copy()
+        for c in range(channels):  # sums over runs of a row: faster than np.bincount
+            updated[c, rows_with_entries] += np.add.reduceat(transfer[c] * lighting[c][column], row_start)
+        np.maximum(updated, 0.0, out=updated)
         change = np.abs(updated - lighting).max()
         lighting = updated
         if change <= ITERATION_TOLERANCE * max(np.abs(lighting).max(), np.finfo(float).tiny):
@@ -243,13 +255,24 @@ def _receiver_surfaces(near: NearField, mesh: Discretization, channels: int) -> 
             np.concatenate([mesh.node_reflectance, mesh.patch_reflectance[near.owner]])[:, :channels])
 
 
+def _corner_points(scene: Scene, mesh: Discretization, corners: np.ndarray) -> int:
+    """How many points the patch ``corners`` (n, 3) of ``mesh`` are at, welded as
+    ``_corner_keys`` welds them."""
+    return int(rows.labels(_welded(scene, mesh, corners)).max()) + 1 if len(corners) else 0
+
+
+def _welded(scene: Scene, mesh: Discretization, corners: np.ndarray) -> np.ndarray:
+    """(n, 3) the patch ``corners`` (n, 3) of ``mesh`` rounded to steps of CORNER_WELD of the
+    scene's extent."""
+    step = max(scene.extent, np.finfo(float).tiny) * CORNER_WELD
+    return np.round((corners - mesh.patch_corners.min(axis=(0, 1))) / step)
+
+
 def _corner_keys(scene: Scene, mesh: Discretization) -> np.ndarray:
     """(P, 3) key of the surface point at each patch corner: equal for the corners of patches of
     one flat surface, side and material that meet there, unless a contact line may run between
     them (radiosity jumps across one)."""
-    corners = mesh.patch_corners.reshape(-1, 3)
-    step = max(scene.extent, np.finfo(float).tiny) * CORNER_WELD
-    position = np.round((corners - corners.min(axis=0)) / step)
+    position = _welded(scene, mesh, mesh.patch_corners.reshape(-1, 3))
     patch = np.repeat(np.arange(mesh.patch_count), 3)
     surface = np.concatenate([np.round(mesh.patch_normals * 1e6), mesh.patch_reflectance, mesh.patch_emission,
                               mesh.patch_piece[:, None]], axis=1)[patch]
@@ -363,14 +386,15 @@ def _where_seen(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray) 
         chunk = slice(start, min(start + PAIRS_PER_BLOCK, len(points)))
         point, normal, triangle = points[chunk], normals[chunk], triangles[chunk]
         count = len(point)
-        factors = _piece_form_factors(point, normal, triangle, np.broadcast_to(split, (count, *split.shape)))
+        factors = _piece_form_factors(point, normal, triangle, split[None], 1 / QUADRATURE_DIVISIONS)
         moment, total = factors @ centroids, factors.sum(axis=1)
         peaked = np.flatnonzero(factors.max(axis=1) > PEAKED * total)
         if len(peaked):
             largest = np.argsort(-factors[peaked], axis=1)[:, :REFINED]  # (k, R)
             chosen = split[largest]  # (k, R, 3, 3)
             finer = (split @ chosen[:, :, None]).reshape(len(peaked), -1, 3, 3)  # (k, R, S, 3, 3)
-            finer_factors = _piece_form_factors(point[peaked], normal[peaked], triangle[peaked], finer)
+            finer_factors = _piece_form_factors(point[peaked], normal[peaked], triangle[peaked], finer,
+                                                QUADRATURE_DIVISIONS ** -2)
             replaced = np.take_along_axis(factors[peaked], largest, axis=1)  # (k, R)
             moment[peaked] += np.einsum("km,kmb->kb", finer_factors, finer.mean(axis=2)) \
                 - np.einsum("kr,krb->kb", replaced, centroids[largest])
@@ -381,10 +405,20 @@ def _where_seen(points: np.ndarray, normals: np.ndarray, triangles: np.ndarray) 
     return np.concatenate(parts) if parts else np.zeros((0, 3))
 
 
-def _piece_form_factors(points, normals, triangles, pieces) -> np.ndarray:
-    """(k, m) unoccluded form factors from each point to the m pieces (barycentric (k, m, 3, 3))
-    of its triangle (k, 3, 3)."""
-    count, per = pieces.shape[:2]
-    corners = (pieces @ triangles[:, None]).reshape(-1, 3, 3)
-    factors = point_to_triangle(np.repeat(points, per, axis=0), np.repeat(normals, per, axis=0), corners)
-    return factors.reshape(count, per)
+def _piece_form_factors(points, normals, triangles, pieces, scale: float) -> np.ndarray:
+    """(k, m) unoccluded form factors from each point (k, 3) facing ``normals`` to the m pieces
+    (barycentric (k or 1, m, 3, 3), congruent, ``scale`` times the size of the triangle) of its
+    triangle (k, 3, 3): exact (``point_to_triangle``) for pieces within EXACT_WITHIN of their
+    longest edge of the point, the point rule at their centroid for the others,
+    A cos+ cos+ / (pi r^2)."""
+    offset = pieces.mean(axis=2) @ triangles - points[:, None]  # (k, m, 3) from the point to each centroid
+    distance2 = np.einsum("kmx,kmx->km", offset, offset)
+    reach = EXACT_WITHIN * scale * longest_edges(triangles)
+    double_area = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]) * scale ** 2
+    leaving = np.maximum(np.einsum("kmx,kx->km", offset, normals), 0.0)
+    arriving = np.maximum(-np.einsum("kmx,kx->km", offset, double_area), 0.0)  # towards the front
+    factors = leaving * arriving / (2 * np.pi * np.maximum(distance2, np.finfo(float).tiny) ** 2)
+    pair, piece = np.nonzero(distance2 < reach[:, None] ** 2)
+    corners = pieces[pair if len(pieces) > 1 else 0, piece] @ triangles[pair]
+    factors[pair, piece] = point_to_triangle(points[pair], normals[pair], corners)
+    return factors
