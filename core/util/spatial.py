@@ -177,26 +177,34 @@ def _levels(sizes: np.ndarray, base: float, spread: float) -> np.ndarray:
 def _cell_pairs(low_q, high_q, queried, low_l, high_l, listed, cell: float, origin: np.ndarray):
     """Blocks of work, each a function giving touching pairs (q, l) as index arrays, of boxes
     ``queried`` and ``listed``, both listed in every cell of size ``cell`` they overlap: a pair
-    counts in the cell holding the lowest corner of the boxes' overlap, where both are listed."""
+    counts in the cell holding the lowest corner of the boxes' overlap, where both are listed.
+    That cell is, axis by axis, the later of the two boxes' first cells: tested first, on integers,
+    it leaves about one candidate in ten for the boxes' own test."""
     if len(queried) == 0 or len(listed) == 0:
         return []
-    cells_l, owner_l = _listings(*_cells(low_l[listed], high_l[listed], origin, cell))
-    cells_q, owner_q = _listings(*_cells(low_q[queried], high_q[queried], origin, cell))
+    first_l, spans_l = _cells(low_l[listed], high_l[listed], origin, cell)
+    first_q, spans_q = _cells(low_q[queried], high_q[queried], origin, cell)
+    cells_l, owner_l = _listings(first_l, spans_l)
+    cells_q, owner_q = _listings(first_q, spans_q)
     key_l, key_q = _cell_keys(cells_l), _cell_keys(cells_q)
     order = np.argsort(key_l, kind="stable")
-    key_l, owner_l = key_l[order], listed[owner_l[order]]
-    owner_q = queried[owner_q]
+    key_l, owner_l = key_l[order], owner_l[order]
     start = np.searchsorted(key_l, key_q, side="left")
     count = np.searchsorted(key_l, key_q, side="right") - start
     total = np.cumsum(count)
+    axes = [(np.ascontiguousarray(first_q[:, axis]), np.ascontiguousarray(first_l[:, axis]),
+             np.ascontiguousarray(cells_q[:, axis])) for axis in range(3)]
 
     def block(chunk: slice) -> tuple[np.ndarray, np.ndarray]:
         run = runs(count[chunk])
-        first = owner_q[chunk][run]
-        second = owner_l[start[chunk][run] + ranks(count[chunk], run)]
-        corner = np.floor((np.maximum(low_q[first], low_l[second]) - origin) / cell).astype(np.int64)
-        keep = _boxes_touch(low_q, high_q, first, low_l, high_l, second) & \
-            (_cell_keys(corner) == key_q[chunk][run])
+        listing = chunk.start + run  # the query's listing: its box and the cell
+        second = owner_l[start[listing] + ranks(count[chunk], run)]
+        first = owner_q[listing]
+        for first_cells, second_cells, cells in axes:  # the pair's cell is this one
+            here = np.maximum(first_cells[first], second_cells[second]) == cells[listing]
+            first, second, listing = first[here], second[here], listing[here]
+        first, second = queried[first], listed[second]
+        keep = _boxes_touch(low_q, high_q, first, low_l, high_l, second)
         return first[keep], second[keep]
 
     blocks, begin = [], 0
