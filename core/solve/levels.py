@@ -21,6 +21,9 @@ from .progressive import ColumnCache, ShootingState, progressive
 COARSE_TOLERANCE = 10
 # With Monte Carlo, the share of the stage's progress the shots take.
 SHOTS_SHARE = 0.5
+# Monte Carlo's answers a session keeps, each for a set of reflectances: a re-solve of one of them
+# with the lights' colour or strength changed scales it instead of tracing again.
+KEPT_TRACES = 4
 
 
 @dataclass
@@ -200,6 +203,26 @@ class _Levels:
         self.radiosity = radiosity
         return radiosity
 
+    def _particles(self, mesh, visibility: Visibility, particles: int, stages: Stages) -> np.ndarray:
+        """X (P, C) for the unshot light: ``montecarlo.trace``'s, or a kept one scaled where only
+        the lights' colour or strength changed since (``montecarlo.channel_scale``), as a fresh
+        trace would give it: its particles would be the same."""
+        unshot, reflectance = self.state.unshot, mesh.patch_reflectance[:, : self.channels]
+        traces = self.kept.setdefault("traces", [])  # the last bakes' (unshot, reflectance, X), latest first
+        reused = None
+        for index, (traced_unshot, traced_reflectance, traced) in enumerate(traces):
+            scale = montecarlo.channel_scale(traced_unshot, unshot) \
+                if np.array_equal(traced_reflectance, reflectance) else None
+            if scale is not None:
+                reused, future = index, traced * scale
+                break
+        if reused is None:
+            future = stages.run("tracing particles", (0.0, 0.5), montecarlo.trace, mesh, visibility, unshot,
+                                reflectance, particles, self.settings.seed, timer="monte_carlo")
+        traces.insert(0, (unshot.copy(), reflectance.copy(), future) if reused is None else traces.pop(reused))
+        del traces[KEPT_TRACES:]
+        return future
+
     def _gather(self, radiosity: np.ndarray, report) -> np.ndarray:
         mesh = self.light.mesh
         return self.node_direct + self.light.gathered(mesh.node_points, mesh.node_normals, radiosity, report)
@@ -217,17 +240,7 @@ class _Levels:
                                     owners=mesh.patch_triangle[: mesh.front_patch_count], casting=mesh.front_casts,
                                     opacity=mesh.front_opacity)
         particles = montecarlo.particle_count(mesh.patch_count, settings.monte_carlo_rays)
-        reflectance = mesh.patch_reflectance[:, : self.channels]
-        traced = self.kept.get("traced")  # a re-solve's last trace: (unshot, reflectance, X)
-        scale = None
-        if traced is not None and np.array_equal(traced[1], reflectance):
-            scale = montecarlo.channel_scale(traced[0], state.unshot)
-        if scale is not None:  # only the lights' colour or strength changed: the same particles, scaled
-            future = traced[2] * scale
-        else:
-            future = stages.run("tracing particles", (0.0, 0.5), montecarlo.trace, mesh, visibility, state.unshot,
-                                reflectance, particles, settings.seed, timer="monte_carlo")
-            self.kept["traced"] = (state.unshot.copy(), reflectance.copy(), future)
+        future = self._particles(mesh, visibility, particles, stages)
         radiosity = state.radiosity[: mesh.patch_count] - state.unshot + future
         self.stats["monte_carlo"] = {"particles": particles, "gather_rays": settings.monte_carlo_rays}
         if engine.method == "hemicube":  # the estimate keeps the unshot light's bound

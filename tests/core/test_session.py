@@ -83,7 +83,8 @@ def test_a_light_of_another_colour_re_solves_monte_carlo_without_tracing_again()
     """The room's one emitter turns warmer and brighter: every light in the scene is scaled per
     channel, so are Monte Carlo's unshot light and its answer (its particles chosen by each
     channel's share: test_montecarlo.py). The re-solve scales the particles' answer instead of
-    tracing them again, and gives what a fresh bake traces, to rounding."""
+    tracing them again, and gives what a fresh bake traces, to rounding; so does a later one whose
+    reflectances are the first's again, after a re-solve of others."""
     scene = lit_room()
     knobs = KNOBS | {"monte_carlo_rays": 16}
     session = BakeSession(**knobs)
@@ -98,6 +99,10 @@ def test_a_light_of_another_colour_re_solves_monte_carlo_without_tracing_again()
     again = session.bake(changed)
     assert again.stats["resolved"] and "monte_carlo" in again.stats["seconds"]
     assert_same_colours(again, bake(changed, **knobs), NEW_SAMPLES)
+    cooler = recoloured(scene, emission=scene.emission * [0.5, 1.0, 2.0])  # the first colours: their trace, scaled
+    again = session.bake(cooler)
+    assert again.stats["resolved"] and "monte_carlo" not in again.stats["seconds"]
+    assert_same_colours(again, bake(cooler, **knobs))
 
 
 def test_the_light_of_each_source_alone_adds_up_to_all_of_it():
