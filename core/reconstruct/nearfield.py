@@ -61,7 +61,7 @@ PAIRS_PER_BLOCK = 4096  # pairs per block of that quadrature, spread over the th
 RAY_PAIRS_PER_BLOCK = 1 << 14  # pairs per block of ray-cast form factors, spread over the threads
 # Corners of different patches closer than this fraction of the scene's extent share a node.
 CORNER_WELD = 1e-7
-ITERATION_TOLERANCE = 1e-10  # relative change of the colours at which the fixed point stops
+ITERATION_TOLERANCE = 1e-8  # relative change at which the fixed point stops: what it leaves is change x rho / (1 - rho)
 MAX_ITERATIONS = 200
 # Patches below this fraction of the area-mean radiosity of the patches that do not emit are left
 # to their constant: their correction would be below it too.
