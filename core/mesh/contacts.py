@@ -51,18 +51,27 @@ def _contact_lines(corners: np.ndarray, degenerate: np.ndarray,
     cutters = np.flatnonzero(~degenerate)
     targets = cutters[size[cutters] >= smallest]
     low, high = padded_boxes(corners)
-    first, second = overlapping_boxes(low[targets], high[targets], low[cutters], high[cutters])
-    heartbeat()
-    target, other = targets[first], cutters[second]
     _, normals = areas_and_normals(corners)
-    crossing = np.abs((normals[target] * normals[other]).sum(axis=1)) < 1 - PARALLEL
-    target, other = target[crossing], other[crossing]
-    heights = np.einsum("kcx,kx->kc", corners[other] - corners[target][:, :1], normals[target])
-    heights[np.abs(heights) <= CONTACT_TOLERANCE * size[target][:, None]] = 0
-    meets = np.flatnonzero((heights.min(axis=1) <= 0) & (heights.max(axis=1) >= 0))
-    target, other, heights = target[meets], other[meets], heights[meets]
+
+    def heights(target: np.ndarray, other: np.ndarray) -> np.ndarray:
+        """(k, 3) the other triangle's corners over the target's plane, zero within its tolerance."""
+        over = np.einsum("kcx,kx->kc", corners[other] - corners[target][:, :1], normals[target])
+        over[np.abs(over) <= CONTACT_TOLERANCE * size[target][:, None]] = 0
+        return over
+
+    def meeting(first: np.ndarray, second: np.ndarray) -> np.ndarray:
+        """Whether the other triangle crosses the target's plane (or touches it), not parallel to it."""
+        target, other = targets[first], cutters[second]
+        result = np.abs((normals[target] * normals[other]).sum(axis=1)) < 1 - PARALLEL
+        crossing = np.flatnonzero(result)
+        over = heights(target[crossing], other[crossing])
+        result[crossing] = (over.min(axis=1) <= 0) & (over.max(axis=1) >= 0)
+        return result
+
+    first, second = overlapping_boxes(low[targets], high[targets], low[cutters], high[cutters], meeting)
+    target, other = targets[first], cutters[second]
     heartbeat()
-    start, end, found = _plane_sections(corners[other], heights)
+    start, end, found = _plane_sections(corners[other], heights(target, other))
     heartbeat()
     target, start, end = target[found], start[found], end[found]
     inside = np.flatnonzero(_length_inside(corners[target], normals[target], start, end,

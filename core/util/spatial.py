@@ -27,10 +27,11 @@ LISTINGS_PER_BLOCK = 1 << 20
 EVERY_PAIR = 1 << 20
 
 
-def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray,
-                      high_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray, high_b: np.ndarray,
+                      keep: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Index pairs (i, j), each once, sorted, of axis-aligned boxes (corners (n, 3)) of a and b
-    that overlap or touch, through a grid per size (cells doubling from level to level): each box
+    that overlap or touch and for which ``keep(i, j)`` (index arrays to a bool mask; None: all)
+    holds, run block by block on the pool's threads, through a grid per size (cells doubling from level to level): each box
     is listed in the few cells of its size's grid it overlaps (``_levels``), and paired there with
     every box no larger listed in the same cells; a pair counts in the one cell that holds the
     lowest corner of the boxes' overlap. Boxes of every size cost alike: in one grid, a wall listed
@@ -39,8 +40,15 @@ def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray,
     empty = np.zeros(0, dtype=np.int64)
     if len(low_a) == 0 or len(low_b) == 0:
         return empty, empty
+
+    def kept(pairs: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        if keep is None or len(pairs[0]) == 0:
+            return pairs
+        chosen = keep(*pairs)
+        return pairs[0][chosen], pairs[1][chosen]
+
     if len(low_a) * len(low_b) <= EVERY_PAIR:
-        return _every_pair(low_a, high_a, np.arange(len(low_a)), low_b, high_b, np.arange(len(low_b)))
+        return kept(_every_pair(low_a, high_a, np.arange(len(low_a)), low_b, high_b, np.arange(len(low_b))))
     origin = np.minimum(low_a.min(axis=0), low_b.min(axis=0))
     spread = float((np.maximum(high_a.max(axis=0), high_b.max(axis=0)) - origin).max())
     sizes_a, sizes_b = (high_a - low_a).max(axis=1), (high_b - low_b).max(axis=1)
@@ -58,11 +66,13 @@ def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray,
     for job in jobs:
         heartbeat()
         blocks += [(block, job[7]) for block in _cell_pairs(*job[:7], origin)]
-    keys = [empty]
-    for (found, listed), swapped in zip(parallel.map_ordered(lambda block: block[0](), blocks),
-                                        (swapped for _, swapped in blocks)):
-        keys.append(listed * len(low_b) + found if swapped else found * len(low_b) + listed)
-    keys = np.sort(np.concatenate(keys))
+
+    def key(block, swapped: bool) -> np.ndarray:
+        found, listed = block()
+        first, second = kept((listed, found) if swapped else (found, listed))
+        return first * len(low_b) + second
+
+    keys = np.sort(np.concatenate([empty, *parallel.map_ordered(lambda job: key(*job), blocks)]))
     return keys // len(low_b), keys % len(low_b)
 
 
