@@ -39,13 +39,22 @@ def coplanar_overlap_pairs(corners: np.ndarray, owners: np.ndarray) -> tuple[np.
     than the tolerance."""
     areas, normals = areas_and_normals(corners)
     valid = _sharing_a_plane(corners, normals, owners, np.flatnonzero(areas > 0))
-    first, second = touching_boxes(corners[valid])
+    sizes = longest_edges(corners)
+
+    def in_plane(first: np.ndarray, second: np.ndarray) -> np.ndarray:
+        """Whether b, of another owner, lies in a's plane."""
+        a, b = valid[first], valid[second]
+        result = (owners[a] != owners[b]) & (np.abs((normals[a] * normals[b]).sum(axis=1)) >= 1 - PARALLEL)
+        near = np.flatnonzero(result)
+        a, b = a[near], b[near]
+        heights = np.einsum("kcx,kx->kc", corners[b] - corners[a][:, :1], normals[a])
+        result[near] = (np.abs(heights) <= CONTACT_TOLERANCE * sizes[a][:, None]).all(axis=1)
+        return result
+
+    low, high = padded_boxes(corners[valid])
+    first, second = spatial.overlapping_boxes(low, high, low, high, in_plane)
     a, b = valid[first], valid[second]
-    keep = (owners[a] != owners[b]) & (np.abs((normals[a] * normals[b]).sum(axis=1)) >= 1 - PARALLEL)
-    a, b = a[keep], b[keep]
-    tolerance = CONTACT_TOLERANCE * longest_edges(corners[a])
-    heights = np.einsum("kcx,kx->kc", corners[b] - corners[a][:, :1], normals[a])
-    a, b, tolerance = (x[(np.abs(heights) <= tolerance[:, None]).all(axis=1)] for x in (a, b, tolerance))
+    tolerance = CONTACT_TOLERANCE * sizes[a]
     overlap = np.ones(len(a), dtype=bool)
     for triangle in (a, b):
         for i in range(3):
@@ -98,10 +107,3 @@ def padded_boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     CONTACT_TOLERANCE of each triangle's size: what may meet a triangle lies in its box."""
     pad = (CONTACT_TOLERANCE * longest_edges(corners))[:, None]
     return corners.min(axis=1) - pad, corners.max(axis=1) + pad
-
-
-def touching_boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Pairs of triangles (k, 3, 3) whose ``padded_boxes`` touch: the candidates for meeting
-    (each pair both ways, and each with itself)."""
-    low, high = padded_boxes(corners)
-    return spatial.overlapping_boxes(low, high, low, high)

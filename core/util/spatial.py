@@ -54,14 +54,18 @@ def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray, 
     sizes_a, sizes_b = (high_a - low_a).max(axis=1), (high_b - low_b).max(axis=1)
     base = _cell_size(np.concatenate([sizes_a, sizes_b]), spread, 1.0)
     level_a, level_b = _levels(sizes_a, base, spread), _levels(sizes_b, base, spread)
+    # one set against itself: each pair of boxes of different levels is found once, by the larger's
+    # level, and turned round for the other way
+    itself = low_a is low_b and high_a is high_b
     jobs = []
     for level in np.union1d(level_a, level_b):
         cell = base * 2.0 ** int(level)
         # b's boxes of this level against a's no larger, and a's of this level against b's smaller
-        jobs += [(low_a, high_a, np.flatnonzero(level_a <= level), low_b, high_b, np.flatnonzero(level_b == level),
-                  cell, False),
-                 (low_b, high_b, np.flatnonzero(level_b < level), low_a, high_a, np.flatnonzero(level_a == level),
-                  cell, True)]
+        jobs.append((low_a, high_a, np.flatnonzero(level_a <= level), low_b, high_b, np.flatnonzero(level_b == level),
+                     cell, False))
+        if not itself:
+            jobs.append((low_b, high_b, np.flatnonzero(level_b < level), low_a, high_a,
+                         np.flatnonzero(level_a == level), cell, True))
     blocks = []
     for job in jobs:
         heartbeat()
@@ -70,6 +74,10 @@ def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray, 
     def key(block, swapped: bool) -> np.ndarray:
         found, listed = block()
         first, second = kept((listed, found) if swapped else (found, listed))
+        if itself:
+            smaller = np.flatnonzero(level_a[found] < level_a[listed])
+            turned = kept((listed[smaller], found[smaller]))
+            first, second = np.concatenate([first, turned[0]]), np.concatenate([second, turned[1]])
         return first * len(low_b) + second
 
     keys = np.sort(np.concatenate([empty, *parallel.map_ordered(lambda job: key(*job), blocks)]))

@@ -37,6 +37,24 @@ def test_overlapping_boxes_finds_exactly_the_touching_pairs(monkeypatch, grid):
 
 
 @pytest.mark.parametrize("grid", [True, False])
+def test_boxes_against_themselves_and_a_filter_give_exactly_the_touching_pairs_it_keeps(monkeypatch, grid):
+    """One set against itself (each pair of different sizes found once and turned round) gives
+    every pair both ways and each box with itself, as brute force does; ``keep``, which need not be
+    symmetric, drops exactly the pairs it rejects, each way on its own."""
+    if grid:
+        monkeypatch.setattr(spatial, "EVERY_PAIR", 0)
+    low, high = random_boxes(np.random.default_rng(8), 500)
+    touching = ((low[:, None] <= high[None]) & (low[None] <= high[:, None])).all(axis=2)
+    first, second = spatial.overlapping_boxes(low, high, low, high)
+    np.testing.assert_array_equal(np.stack([first, second]), np.stack(np.nonzero(touching)))
+    sizes = (high - low).max(axis=1)
+    first, second = spatial.overlapping_boxes(low, high, low, high, lambda i, j: sizes[i] < 2 * sizes[j])
+    np.testing.assert_array_equal(np.stack([first, second]),
+                                  np.stack(np.nonzero(touching & (sizes[:, None] < 2 * sizes[None]))))
+    assert len(first) > 1000 and (sizes[first] > sizes[second]).any()  # both ways of pairs of different sizes
+
+
+@pytest.mark.parametrize("grid", [True, False])
 def test_points_in_boxes_finds_exactly_the_points_inside_and_applies_the_filter(monkeypatch, grid):
     """Points against boxes (grids of several sizes, and the direct test) give the brute-force pairs, each once; ``keep`` sees only pairs inside and its
     verdict stands."""
