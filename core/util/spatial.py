@@ -28,15 +28,17 @@ EVERY_PAIR = 1 << 20
 
 
 def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray, high_b: np.ndarray,
-                      keep: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+                      keep: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
+                      ) -> tuple[np.ndarray, np.ndarray]:
     """Index pairs (i, j), each once, sorted, of axis-aligned boxes (corners (n, 3)) of a and b
     that overlap or touch and for which ``keep(i, j)`` (index arrays to a bool mask; None: all)
-    holds, run block by block on the pool's threads, through a grid per size (cells doubling from level to level): each box
-    is listed in the few cells of its size's grid it overlaps (``_levels``), and paired there with
-    every box no larger listed in the same cells; a pair counts in the one cell that holds the
-    lowest corner of the boxes' overlap. Boxes of every size cost alike: in one grid, a wall listed
-    in thousands of the small boxes' cells would meet each neighbour once per cell they share, and
-    tiny boxes crowded into one cell would each meet all the others."""
+    holds, ``keep`` run block by block on the pool's threads. Through a grid per size (cells
+    doubling from level to level): each box is listed in the few cells of its size's grid it
+    overlaps (``_levels``), and paired there with every box no larger listed in the same cells; a
+    pair counts in the one cell that holds the lowest corner of the boxes' overlap. Boxes of every
+    size cost alike: in one grid, a wall listed in thousands of the small boxes' cells would meet
+    each neighbour once per cell they share, and tiny boxes crowded into one cell would each meet
+    all the others."""
     empty = np.zeros(0, dtype=np.int64)
     if len(low_a) == 0 or len(low_b) == 0:
         return empty, empty
