@@ -134,8 +134,8 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
     needed = np.unique(patches)
     missing = corner_output[needed] < 0
     shining = radiosity.any(axis=1).sum()
-    points = _corner_points(scene, mesh, mesh.patch_corners[needed][missing])
-    interpolate = interpolate and points * shining <= GATHER_BUDGET
+    interpolate = interpolate and (
+        _corner_points(scene, mesh, mesh.patch_corners[needed][missing]) * shining <= GATHER_BUDGET)
     # without interpolation nodes no corner's key is read (once the pairs are whole, no corner
     # lacks an output node): one key for all
     corner_key = _corner_keys(scene, mesh) if interpolate else np.zeros_like(corner_output)
