@@ -40,7 +40,12 @@ from ..util import parallel, rows, spatial
 from ..util.geometry import barycentric_grid, longest_edges
 from ..util.progress import heartbeat
 
-NEAR_REACH = 1.25  # a patch is near a node whose point lies within this many longest edges of its centroid
+# A patch is near a node whose point lies within this many longest edges of its centroid. Every
+# point of a triangle lies within 2/3 of its longest edge of its centroid (a corner is 2/3 of a
+# median away), so this holds each patch touching the node and a third of an edge more: 0.75, 1
+# and 1.25 gave the same error on the Cornell box, Sponza and the breakfast room, and 1 costs 20 %
+# less than 1.25 (docs/notes/experiments.md).
+NEAR_REACH = 1.0
 # Where a node looks on a patch: the patch split into 4 x 4 pieces, and where one piece holds
 # more than PEAKED of the form factor, the 2 it sees most of split again (46 pieces per pair): on
 # Sponza's near pairs 2.3 % of the triangle from a 30 x 30 split's reading point (F-weighted),
@@ -312,27 +317,38 @@ def _near_pairs(points: np.ndarray, normals: np.ndarray, sizes: np.ndarray, mesh
     edge (a patch much larger than the others is near only the points close to it), which the
     point sees (F > 0) and which is not pressed against the point's surface, whose faces are
     ``sizes`` (n,) long (PRESSED_ANGLE)."""
-    candidates = np.flatnonzero(lit)
+    lit_patches = np.flatnonzero(lit)
     edges = longest_edges(mesh.patch_corners)
-    corners = mesh.patch_corners[candidates]
-    pad = NEAR_REACH * np.minimum(edges[candidates], np.median(edges))[:, None]
+    corners, centroids = mesh.patch_corners[lit_patches], mesh.patch_centroids[lit_patches]
+    pad = NEAR_REACH * np.minimum(edges[lit_patches], np.median(edges))[:, None]
+    reach = NEAR_REACH * edges[lit_patches]
+    # the boxes within reach of each patch: its box grown by the pad, and its centroid's sphere's,
+    # cut to what lies in front of it (twice the margin of the test below, against rounding)
+    low, high = spatial.in_front(np.maximum(corners.min(axis=1) - pad, centroids - reach[:, None]),
+                                 np.minimum(corners.max(axis=1) + pad, centroids + reach[:, None]),
+                                 centroids, mesh.patch_normals[lit_patches], 2 * HORIZON * edges[lit_patches])
+    nonempty = (low <= high).all(axis=1)
+    candidates, low, high = lit_patches[nonempty], low[nonempty], high[nonempty]
 
     point_axes = [np.ascontiguousarray(points[:, axis]) for axis in range(3)]
     centroid_axes = [np.ascontiguousarray(mesh.patch_centroids[candidates, axis]) for axis in range(3)]
-    reach = NEAR_REACH * edges[candidates]
-    reach2 = reach ** 2
+    normal_axes = [np.ascontiguousarray(mesh.patch_normals[candidates, axis]) for axis in range(3)]
+    candidate_edges = edges[candidates]
+    reach2 = (NEAR_REACH * candidate_edges) ** 2
 
     def may_see(receivers: np.ndarray, chosen: np.ndarray) -> np.ndarray:
-        # close enough; and the patch neither on nor behind the point's tangent plane (its own
-        # surface, most of them) nor turning its back to the point: F = 0 without casting a ray
-        distance2 = sum((point_axis[receivers] - centroid_axis[chosen]) ** 2
-                        for point_axis, centroid_axis in zip(point_axes, centroid_axes))
-        result = distance2 < reach2[chosen]
+        # close enough, with the point not on or behind the patch's plane (its own surface, most of
+        # them); then the patch neither pressed against the point's surface nor wholly under the
+        # point's tangent plane: F = 0 without casting a ray
+        offset = [point_axis[receivers] - centroid_axis[chosen]
+                  for point_axis, centroid_axis in zip(point_axes, centroid_axes)]
+        edge = candidate_edges[chosen]
+        height = sum(axis * normal_axis[chosen] for axis, normal_axis in zip(offset, normal_axes))
+        result = (sum(axis ** 2 for axis in offset) < reach2[chosen]) & (height > -HORIZON * edge)
         close = np.flatnonzero(result)
-        receivers, patches = receivers[close], candidates[chosen[close]]
-        offset, edge = points[receivers] - mesh.patch_centroids[patches], edges[patches]
+        receivers, patches, edge, height = receivers[close], candidates[chosen[close]], edge[close], height[close]
+        offset = np.stack([axis[close] for axis in offset], axis=1)
         normal, patch_normal = normals[receivers], mesh.patch_normals[patches]
-        height = np.einsum("kx,kx->k", offset, patch_normal)
         cosine = np.einsum("kx,kx->k", normal, patch_normal)
         pressed = (cosine < -np.cos(PRESSED_ANGLE)) & (height < sizes[receivers])
         # the patch's corners rise at most edge x sin(angle between the normals) above its centroid
@@ -341,17 +357,13 @@ def _near_pairs(points: np.ndarray, normals: np.ndarray, sizes: np.ndarray, mesh
         # corners lie off the patch's plane by rounding, below HORIZON x edge): 2e-8 more covers both.
         sine = np.sqrt(np.maximum(1.0 - cosine ** 2, 0.0)) + 2e-8
         highest = sine * edge - np.einsum("kx,kx->k", offset, normal)
-        maybe = np.flatnonzero((height > -HORIZON * edge) & (highest > 0.0) & ~pressed)
+        maybe = np.flatnonzero((highest > 0.0) & ~pressed)
         corners_above = np.einsum("kcx,kx->kc", mesh.patch_corners[patches[maybe]] - points[receivers[maybe]][:, None],
                                   normal[maybe])
         result[close] = False
         result[close[maybe]] = corners_above.max(axis=1) > HORIZON * edge[maybe]
         return result
 
-    # the boxes within reach of each patch: its box grown by the pad, and its centroid's sphere's
-    centroids = mesh.patch_centroids[candidates]
-    low = np.maximum(corners.min(axis=1) - pad, centroids - reach[:, None])
-    high = np.minimum(corners.max(axis=1) + pad, centroids + reach[:, None])
     receivers, chosen = spatial.points_in_boxes(points, low, high, may_see)
     patches = candidates[chosen]
     parts = parallel.map_ordered(

@@ -134,6 +134,21 @@ def points_in_boxes(points: np.ndarray, low: np.ndarray, high: np.ndarray,
     return _joined(list(parallel.map_ordered(lambda job: job[0].pairs(job[1], accept), blocks)))
 
 
+def in_front(low: np.ndarray, high: np.ndarray, origins: np.ndarray, normals: np.ndarray,
+             margin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Boxes (corners (n, 3)) cut down to cover only their part with n . (x - o) >= -margin, in
+    front of the plane through ``origins`` (n, 3) facing ``normals`` (n, 3): along each axis i
+    with n_i != 0, x_i is bounded by o_i - (margin + max over the box of sum_{j != i} n_j (x_j -
+    o_j)) / n_i. A box whose plane is near an axis loses the half behind it; a box behind its
+    plane is left empty (low > high)."""
+    rise = np.maximum(normals * (low - origins), normals * (high - origins))  # (n, 3) the most each axis adds
+    others = rise.sum(axis=1, keepdims=True) - rise
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bound = origins - (margin[:, None] + others) / normals
+    return (np.where(normals > 0, np.maximum(low, bound), low),
+            np.where(normals < 0, np.minimum(high, bound), high))
+
+
 class _PointGrid:
     """The points sorted by their cell of a grid (cells of size ``cell`` from ``origin``), and
     the cells each box overlaps."""

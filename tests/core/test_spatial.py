@@ -84,6 +84,33 @@ def test_points_in_boxes_finds_exactly_the_points_inside_and_applies_the_filter(
     assert set(zip(first, second)) == {(i, j) for i, j in expected if (i + j) % 2 == 0}
 
 
+def test_boxes_cut_to_the_front_of_a_plane_keep_every_point_in_front_and_lose_what_is_behind():
+    """in_front: every point of a box on or in front of its plane (within the margin) stays in
+    the cut box, for planes at any angle; a plane along an axis cuts its box at the plane, and a
+    box wholly behind its plane is left empty."""
+    rng = np.random.default_rng(3)
+    low, high = random_boxes(rng, 300)
+    origins = low + rng.random((300, 3)) * (high - low)
+    normals = rng.normal(size=(300, 3))
+    normals[:100] = np.eye(3)[rng.integers(0, 3, 100)] * rng.choice([-1.0, 1.0], (100, 1))  # along an axis
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    margin = np.full(300, 1e-3)
+    cut_low, cut_high = spatial.in_front(low, high, origins, normals, margin)
+    samples = low[:, None] + rng.random((300, 2000, 3)) * (high - low)[:, None]
+    front = np.einsum("kmx,kx->km", samples - origins[:, None], normals) >= -margin[:, None]
+    inside = ((cut_low[:, None] <= samples) & (samples <= cut_high[:, None])).all(axis=2)
+    assert front.sum() > 200_000  # most boxes have points in front
+    assert not (front & ~inside).any()
+    axis = np.abs(normals[:100]).argmax(axis=1)
+    rows = np.arange(100)
+    bound = np.where(normals[rows, axis] > 0, cut_low[rows, axis], cut_high[rows, axis])
+    np.testing.assert_allclose(bound, np.clip(origins[rows, axis] - margin[:100] * normals[rows, axis],
+                                              low[rows, axis], high[rows, axis]), rtol=0, atol=1e-12)
+    behind_low, behind_high = spatial.in_front(low[:1], high[:1], high[:1] + 1.0, np.array([[0.0, 0.0, 1.0]]),
+                                               margin[:1])
+    assert (behind_low > behind_high).any()
+
+
 def test_runs_and_ranks_are_np_repeat_s():
     """``runs`` and ``ranks`` (made without np.repeat, which holds the GIL) against np.repeat,
     with empty runs first, between and last."""
