@@ -14,8 +14,10 @@ from .progress import heartbeat
 # 1 / BOX_SPAN of its size: at most BOX_SPAN + 1 cells per axis.
 BOX_SPAN = 16
 # ``overlapping_boxes`` lists a box in a grid whose cells are between 1 / LISTED_CELLS and twice
-# that of its size: up to 5 x 5 x 5 cells (2 x 2 x 2 would put more boxes in each).
-LISTED_CELLS = 4.0
+# that of its size: up to 3 x 3 x 3 cells. Finer cells list each box in more of them (4: the
+# breakfast room's faces in 21 cells each on average, its coplanar pairs 60 % slower), coarser ones
+# put more boxes in each (1: no faster); the contact cuts take alike (docs/notes/experiments.md).
+LISTED_CELLS = 2.0
 # Grid cells of points against boxes are this many times the median box size: each point falls in
 # one cell, and smaller cells test fewer boxes per point (timed on the large scenes).
 POINT_CELL = 0.5
@@ -201,8 +203,9 @@ def _boxes_touch(low_a, high_a, first, low_b, high_b, second) -> np.ndarray:
 
 def _levels(sizes: np.ndarray, base: float, spread: float) -> np.ndarray:
     """(n,) the grid level of boxes of largest sides ``sizes`` (n,): the level l whose cells,
-    ``base`` x 2^l, are between a quarter and half the box (a box spans at most 5 cells per axis),
-    at least the level where the boxes' ``spread`` is 2^19 cells and at most where it is 1."""
+    ``base`` x 2^l, are between 1 / LISTED_CELLS and twice that of the box (a box spans at most 3
+    cells per axis), at least the level where the boxes' ``spread`` is 2^19 cells and at most
+    where it is 1."""
     lowest = np.floor(np.log2(spread / base)) - 19
     with np.errstate(divide="ignore"):
         level = np.ceil(np.log2(sizes / (LISTED_CELLS * base)))

@@ -149,11 +149,19 @@ def test_triangles_below_the_smallest_size_cut_larger_ones_but_are_not_cut():
     np.testing.assert_array_equal(parts[owner >= 2], corners[2:])
 
 
-def test_the_plane_filter_keeps_every_coplanar_pair_and_few_lone_faces(monkeypatch):
-    """``overlaps._sharing_a_plane`` before the boxes: cards of two faces (the second turned over,
+def _share_a_group(listed: np.ndarray, group: np.ndarray, first: np.ndarray, second: np.ndarray) -> np.ndarray:
+    """Whether each pair of faces is listed in a common group of ``overlaps._plane_groups``."""
+    groups = {}
+    for face, number in zip(listed.tolist(), group.tolist()):
+        groups.setdefault(face, set()).add(number)
+    return np.array([bool(groups.get(a, set()) & groups.get(b, set())) for a, b in zip(first, second)])
+
+
+def test_the_plane_groups_hold_every_coplanar_pair_and_few_lone_faces(monkeypatch):
+    """``overlaps._plane_groups`` before the boxes: cards of two faces (the second turned over,
     or tilted by up to 5e-7 radians and lifted by 1e-7 of its size: still coplanar) anywhere in a
-    200 m scene, some with normals across ``SIDE``, are all kept, and the pairs found are those
-    found without the filter; faces in planes of their own are dropped."""
+    200 m scene, some with normals across ``SIDE``, share a group, and the pairs found are those
+    found with every face in one group; faces in planes of their own are dropped."""
     rng = np.random.default_rng(3)
     faces = []
     for k in range(300):
@@ -174,19 +182,23 @@ def test_the_plane_filter_keeps_every_coplanar_pair_and_few_lone_faces(monkeypat
     corners = np.array(faces)
     owners = np.arange(len(corners))
     areas, normals = areas_and_normals(corners)
-    kept = overlaps._sharing_a_plane(corners, normals, owners, np.arange(len(corners)))
-    assert set(range(400)) <= set(kept.tolist()) and len(kept) < 400 + 10
+    listed, group = overlaps._plane_groups(corners, normals, owners, np.arange(len(corners)))
+    cards = np.arange(0, 400, 2)
+    assert _share_a_group(listed, group, cards, cards + 1).all()
+    # listed twice: the 80 faces across SIDE, and about 1 / 8 near a cell's border
+    assert len(np.unique(listed)) < 400 + 10 and len(listed) < 400 + 80 + 400 / 4
     found = overlaps.coplanar_overlap_pairs(corners, owners)
-    monkeypatch.setattr(overlaps, "_sharing_a_plane", lambda corners, normals, owners, chosen: chosen)
+    monkeypatch.setattr(overlaps, "_plane_groups",
+                        lambda corners, normals, owners, chosen: (chosen, np.zeros(len(chosen), dtype=np.int64)))
     unfiltered = overlaps.coplanar_overlap_pairs(corners, owners)
     assert len(found[0]) == 400
     np.testing.assert_array_equal(np.array(found), np.array(unfiltered))
 
 
-def test_the_plane_filter_keeps_faces_as_far_apart_as_parallel_allows():
+def test_the_plane_groups_hold_faces_as_far_apart_as_parallel_allows():
     """Faces turned by 0.95e-3 radians (PARALLEL allows 1e-3) about an axis in their plane through a
-    corner, 100 m from the middle: their planes differ by nearly the filter's tolerances, so they
-    often fall in different cells of one grid; each pair is kept."""
+    corner, 100 m from the middle: their planes differ by nearly the groups' tolerances, so they
+    often fall in different cells of the grid; each pair shares a group."""
     rng = np.random.default_rng(5)
     faces = []
     for _ in range(200):
@@ -202,5 +214,6 @@ def test_the_plane_filter_keeps_faces_as_far_apart_as_parallel_allows():
         faces += [face, face[0] + (face - face[0]) @ turn.T]
     corners = np.array(faces)
     _, normals = areas_and_normals(corners)
-    kept = overlaps._sharing_a_plane(corners, normals, np.arange(len(corners)), np.arange(len(corners)))
-    assert len(kept) == len(corners)
+    listed, group = overlaps._plane_groups(corners, normals, np.arange(len(corners)), np.arange(len(corners)))
+    pairs = np.arange(0, len(corners), 2)
+    assert _share_a_group(listed, group, pairs, pairs + 1).all()
