@@ -216,8 +216,10 @@ def _cell_pairs(low_q, high_q, queried, low_l, high_l, listed, cell: float, orig
     """Blocks of work, each a function giving touching pairs (q, l) as index arrays, of boxes
     ``queried`` and ``listed``, both listed in every cell of size ``cell`` they overlap: a pair
     counts in the cell holding the lowest corner of the boxes' overlap, where both are listed.
-    That cell is, axis by axis, the later of the two boxes' first cells: tested first, on integers,
-    it leaves the boxes' own test about half the candidates (the breakfast room's coincident faces)."""
+    That cell is, axis by axis, the later of the two boxes' first cells, tested on the pairs whose
+    boxes touch; the boxes are tested first, axis by axis on the pairs left, as most candidates
+    part along one axis (a small box beside a wall, in the wall's cell: the breakfast room's
+    contacts found in 3.4 s instead of 4.6 s with the cells tested first)."""
     if len(queried) == 0 or len(listed) == 0:
         return []
     first_l, spans_l = _cells(low_l[listed], high_l[listed], origin, cell)
@@ -232,18 +234,22 @@ def _cell_pairs(low_q, high_q, queried, low_l, high_l, listed, cell: float, orig
     total = np.cumsum(count)
     axes = [(np.ascontiguousarray(first_q[:, axis]), np.ascontiguousarray(first_l[:, axis]),
              np.ascontiguousarray(cells_q[:, axis])) for axis in range(3)]
+    sides = [(np.ascontiguousarray(low_q[queried, axis]), np.ascontiguousarray(high_q[queried, axis]),
+              np.ascontiguousarray(low_l[listed, axis]), np.ascontiguousarray(high_l[listed, axis]))
+             for axis in range(3)]
 
     def block(chunk: slice) -> tuple[np.ndarray, np.ndarray]:
         run = runs(count[chunk])
         listing = chunk.start + run  # the query's listing: its box and the cell
         second = owner_l[start[listing] + ranks(count[chunk], run)]
         first = owner_q[listing]
+        for low_first, high_first, low_second, high_second in sides:  # axis by axis, on the pairs left
+            touch = (low_first[first] <= high_second[second]) & (low_second[second] <= high_first[first])
+            first, second, listing = first[touch], second[touch], listing[touch]
         for first_cells, second_cells, cells in axes:  # the pair's cell is this one
             here = np.maximum(first_cells[first], second_cells[second]) == cells[listing]
             first, second, listing = first[here], second[here], listing[here]
-        first, second = queried[first], listed[second]
-        keep = _boxes_touch(low_q, high_q, first, low_l, high_l, second)
-        return first[keep], second[keep]
+        return queried[first], listed[second]
 
     blocks, begin = [], 0
     while begin < len(key_q):  # at most PAIRS_PER_BLOCK candidate pairs at once
