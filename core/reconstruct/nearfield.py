@@ -130,12 +130,12 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
     interpolation nodes, as beyond GATHER_BUDGET)."""
     node_count = mesh.node_count
     corner_output = _corner_outputs(mesh)
-    receivers, patches, factors = _near_pairs(mesh.node_points, mesh.node_normals, _node_sizes(scene, mesh), mesh, lit,
-                                              form_factors)
+    receivers, patches = _near_pairs(mesh.node_points, mesh.node_normals, _node_sizes(scene, mesh), mesh, lit)
     # interpolation nodes at the corners of those patches that have no output node, unless
     # gathering at them all would cost more than GATHER_BUDGET point-patch pairs (then only
     # patches whose corners are all output nodes are read as linear); there are at least as many
-    # as the points those corners are at, which are cheaper to count than the corners' surfaces
+    # as the points those corners are at, which are cheaper to count than the corners' surfaces.
+    # Counted on the pairs that may see each other, before their rays: those left out cost none.
     needed = np.unique(patches)
     missing = corner_output[needed] < 0
     shining = radiosity.any(axis=1).sum()
@@ -146,9 +146,10 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
     corner_key = _corner_keys(scene, mesh) if interpolate else np.zeros_like(corner_output)
     if not interpolate or len(np.unique(corner_key[needed][missing])) * shining > GATHER_BUDGET:
         whole = (corner_output[patches] >= 0).all(axis=1)
-        receivers, patches, factors = receivers[whole], patches[whole], factors[whole]
-        needed = np.unique(patches)
-        missing = corner_output[needed] < 0
+        receivers, patches = receivers[whole], patches[whole]
+    receivers, patches, factors = _seen(mesh.node_points, mesh.node_normals, receivers, patches, form_factors)
+    needed = np.unique(patches)
+    missing = corner_output[needed] < 0
     keys, first = np.unique(corner_key[needed][missing], return_index=True)
     slot = np.full(corner_key.max() + 1 if len(corner_key) else 0, -1)
     slot[keys] = node_count + np.arange(len(keys))
@@ -159,11 +160,13 @@ def near_field(scene: Scene, mesh: Discretization, radiosity: np.ndarray, form_f
     normals = mesh.patch_normals[owner_patch]
     # the interpolation nodes are corrected by the patches whose corners all have a node
     corner_receiver = np.where(corner_output >= 0, corner_output, slot[corner_key])
-    extra = _near_pairs(points, normals, longest_edges(mesh.patch_corners[owner_patch]), mesh, lit, form_factors)
-    complete = (corner_receiver[extra[1]] >= 0).all(axis=1)
-    receivers = np.concatenate([receivers, node_count + extra[0][complete]])
-    patches = np.concatenate([patches, extra[1][complete]])
-    factors = np.concatenate([factors, extra[2][complete]])
+    extra_receivers, extra_patches = _near_pairs(points, normals, longest_edges(mesh.patch_corners[owner_patch]), mesh,
+                                                 lit)
+    complete = (corner_receiver[extra_patches] >= 0).all(axis=1)
+    extra = _seen(points, normals, extra_receivers[complete], extra_patches[complete], form_factors)
+    receivers = np.concatenate([receivers, node_count + extra[0]])
+    patches = np.concatenate([patches, extra[1]])
+    factors = np.concatenate([factors, extra[2]])
     all_points = np.concatenate([mesh.node_points, points])
     all_normals = np.concatenate([mesh.node_normals, normals])
     return NearField(
@@ -310,13 +313,13 @@ def _node_sizes(scene: Scene, mesh: Discretization) -> np.ndarray:
     return sizes
 
 
-def _near_pairs(points: np.ndarray, normals: np.ndarray, sizes: np.ndarray, mesh: Discretization, lit: np.ndarray,
-                form_factors: FormFactors) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(receiver, patch, F) for each ``lit`` patch whose centroid lies within NEAR_REACH of its
+def _near_pairs(points: np.ndarray, normals: np.ndarray, sizes: np.ndarray, mesh: Discretization,
+                lit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(receiver, patch) for each ``lit`` patch whose centroid lies within NEAR_REACH of its
     longest edge of the point, and whose bounding box within NEAR_REACH of the median longest
-    edge (a patch much larger than the others is near only the points close to it), which the
-    point sees (F > 0) and which is not pressed against the point's surface, whose faces are
-    ``sizes`` (n,) long (PRESSED_ANGLE)."""
+    edge (a patch much larger than the others is near only the points close to it), which may be
+    seen from the point (in front of it, over its horizon) and which is not pressed against the
+    point's surface, whose faces are ``sizes`` (n,) long (PRESSED_ANGLE)."""
     lit_patches = np.flatnonzero(lit)
     edges = longest_edges(mesh.patch_corners)
     corners, centroids = mesh.patch_corners[lit_patches], mesh.patch_centroids[lit_patches]
@@ -365,7 +368,13 @@ def _near_pairs(points: np.ndarray, normals: np.ndarray, sizes: np.ndarray, mesh
         return result
 
     receivers, chosen = spatial.points_in_boxes(points, low, high, may_see)
-    patches = candidates[chosen]
+    return receivers, candidates[chosen]
+
+
+def _seen(points: np.ndarray, normals: np.ndarray, receivers: np.ndarray, patches: np.ndarray,
+          form_factors: FormFactors) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(receiver, patch, F) of the pairs ``receivers``, ``patches`` (k,) whose point sees the
+    patch: F > 0 by ``form_factors``."""
     parts = parallel.map_ordered(
         lambda start: form_factors(points, normals, receivers[start:start + RAY_PAIRS_PER_BLOCK],
                                    patches[start:start + RAY_PAIRS_PER_BLOCK]),

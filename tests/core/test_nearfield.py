@@ -113,8 +113,8 @@ def test_a_patch_pressed_under_a_surface_is_not_read_by_its_interpolant(gap, pre
     scene = Scene(vertices, triangles, np.full((6, 3), 0.5), np.zeros((6, 3)))
     mesh = discretize(scene, 4.0)
     points, normals = mesh.node_points, mesh.node_normals
-    receivers, patches, _ = _near_pairs(points, normals, _node_sizes(scene, mesh), mesh,
-                                        np.ones(mesh.patch_count, dtype=bool), lambda p, n, r, s: np.ones(len(r)))
+    receivers, patches = _near_pairs(points, normals, _node_sizes(scene, mesh), mesh,
+                                     np.ones(mesh.patch_count, dtype=bool))
     assert (normals[:, 2] < -0.9).sum() == 4  # the plate's corners
     on_floor = mesh.patch_triangle[patches] < 2
     under_plate = normals[receivers, 2] < -0.9
