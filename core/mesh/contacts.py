@@ -94,7 +94,8 @@ def _plane_sections(triangles: np.ndarray, heights: np.ndarray):
     valid = np.concatenate([h == 0, crosses], axis=1)
     first = valid.argmax(axis=1)
     start = points[np.arange(len(points)), first]
-    spread = np.where(valid, np.linalg.norm(points - start[:, None], axis=2), -1.0)
+    offset = points - start[:, None]
+    spread = np.where(valid, np.einsum("kpx,kpx->kp", offset, offset), -1.0)  # squared: its order and sign
     far = spread.argmax(axis=1)
     found = valid.any(axis=1) & (spread.max(axis=1) > 0)
     return start, points[np.arange(len(points)), far], found
