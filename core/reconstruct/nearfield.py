@@ -66,7 +66,10 @@ PAIRS_PER_BLOCK = 4096  # pairs per block of that quadrature, spread over the th
 RAY_PAIRS_PER_BLOCK = 1 << 14  # pairs per block of ray-cast form factors, spread over the threads
 # Corners of different patches closer than this fraction of the scene's extent share a node.
 CORNER_WELD = 1e-7
-ITERATION_TOLERANCE = 1e-8  # relative change at which the fixed point stops: what it leaves is change x rho / (1 - rho)
+# The fixed point stops when what it leaves, at most change x r / (1 - r) for a map that shrinks
+# each change by r (the last step's ratio), is below this share of the brightest node's light: a
+# thousandth of the smallest error of a bake (docs/notes/experiments.md).
+ITERATION_TOLERANCE = 1e-6
 MAX_ITERATIONS = 200
 # Patches below this fraction of the area-mean radiosity of the patches that do not emit are left
 # to their constant: their correction would be below it too.
@@ -221,7 +224,7 @@ def corrected_lighting(near: NearField, mesh: Discretization, radiosity: np.ndar
             - np.bincount(near.receiver, near.form_factor * radiosity[near.patch, c], count)
         transfer[c] = weights * reflectance[column, c]
     rows_with_entries, row_start = np.unique(row, return_index=True)
-    lighting = gathered.T
+    lighting, previous = gathered.T, None
     for iteration in range(1, MAX_ITERATIONS + 1):
         heartbeat()
         # Light is never negative: where the gathered G holds less of the near patches than their
@@ -232,8 +235,8 @@ def corrected_lighting(near: NearField, mesh: Discretization, radiosity: np.ndar
             updated[c, rows_with_entries] += np.add.reduceat(transfer[c] * lighting[c][column], row_start)
         np.maximum(updated, 0.0, out=updated)
         change = np.abs(updated - lighting).max()
-        lighting = updated
-        if change <= ITERATION_TOLERANCE * max(np.abs(lighting).max(), np.finfo(float).tiny):
+        ratio, previous, lighting = change / previous if previous else np.inf, change, updated
+        if change == 0 or (ratio < 1 and change * ratio <= (1 - ratio) * ITERATION_TOLERANCE * np.abs(lighting).max()):
             break
     return lighting.T, iteration
 

@@ -10,8 +10,10 @@ from core import Scene, bake
 from core.transport.analytic import point_to_triangle
 from core.util.geometry import barycentric_grid
 from core.mesh.discretize import discretize
+from core.reconstruct import nearfield
 from core.reconstruct.nearfield import _near_pairs, _node_sizes, _where_seen
-from tests.core.scenes import box, merge, quad
+from core.transport.formfactors import FormFactorEngine
+from tests.core.scenes import box, grid, merge, quad
 
 WALL = np.array([[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])  # x = 0, faces +x
 
@@ -121,3 +123,32 @@ def test_a_patch_pressed_under_a_surface_is_not_read_by_its_interpolant(gap, pre
     on_wall = np.abs(normals[receivers, 0]) > 0.9
     assert (on_floor & under_plate).any() != pressed
     assert (on_floor & on_wall).any()
+
+
+def test_the_corrected_colours_are_the_fixed_point_of_the_near_field():
+    """``corrected_lighting`` on a room's corner of 4 x 4 grids (reflectance 0.95, patches of
+    uneven radiosity): its G' satisfies G' = G + sum_q F (sum_i lambda_i V_i - B_q), V = E + rho G'
+    at the corners' nodes, written out pair by pair, to the fixed point's tolerance; the coupling
+    is strong enough that one pass of the map misses it by far more."""
+    vertices, triangles = merge(grid([0, 0, 0], [2, 0, 0], [0, 2, 0], 4), grid([0, 0, 0], [0, 0, 1], [2, 0, 0], 4),
+                                grid([0, 0, 0], [0, 2, 0], [0, 0, 1], 4))
+    scene = Scene(vertices, triangles, np.full((len(triangles), 3), 0.95), np.zeros((len(triangles), 3)))
+    mesh = discretize(scene)
+    rng = np.random.default_rng(2)
+    radiosity = rng.uniform(0.5, 1.5, (mesh.patch_count, 3))
+    gathered = rng.uniform(0.5, 1.5, (mesh.node_count, 3))
+    near = nearfield.near_field(scene, mesh, radiosity, FormFactorEngine(mesh).point_form_factors,
+                                np.ones(mesh.patch_count, dtype=bool), interpolate=False)
+    lighting, iterations = nearfield.corrected_lighting(near, mesh, radiosity, gathered, np.zeros((0, 3)))
+
+    def mapped(lighting):
+        colours = mesh.node_emission + mesh.node_reflectance * lighting
+        read = np.einsum("kc,kcx->kx", near.weights, colours[near.corner_receiver]) - radiosity[near.patch]
+        result = gathered.copy()
+        np.add.at(result, near.receiver, near.form_factor[:, None] * read)
+        return np.maximum(result, 0.0)
+
+    scale = np.abs(lighting).max()
+    assert np.abs(mapped(lighting) - lighting).max() <= 1e-6 * scale
+    assert np.abs(mapped(gathered) - mapped(mapped(gathered))).max() > 1e-2 * scale
+    assert 5 < iterations < nearfield.MAX_ITERATIONS
