@@ -14,9 +14,9 @@ from .progress import heartbeat
 # 1 / BOX_SPAN of its size: at most BOX_SPAN + 1 cells per axis.
 BOX_SPAN = 16
 # ``overlapping_boxes`` lists a box in a grid whose cells are between 1 / LISTED_CELLS and twice
-# that of its size: up to 3 x 3 x 3 cells. Finer cells list each box in more of them (4: the
-# breakfast room's faces in 21 cells each on average, its coplanar pairs 60 % slower), coarser ones
-# put more boxes in each (1: no faster); the contact cuts take alike (docs/notes/experiments.md).
+# that of its size: up to 3 x 3 x 3 cells. Finer cells list each box in more of them (a flat face
+# in some twenty at 4), coarser ones put more boxes in each; 2 was the fastest on the breakfast
+# room's coplanar pairs and contact lines (docs/notes/experiments.md).
 LISTED_CELLS = 2.0
 # Grid cells of points against boxes are this many times the median box size: each point falls in
 # one cell, and smaller cells test fewer boxes per point (timed on the large scenes).
@@ -218,8 +218,7 @@ def _cell_pairs(low_q, high_q, queried, low_l, high_l, listed, cell: float, orig
     counts in the cell holding the lowest corner of the boxes' overlap, where both are listed.
     That cell is, axis by axis, the later of the two boxes' first cells, tested on the pairs whose
     boxes touch; the boxes are tested first, axis by axis on the pairs left, as most candidates
-    part along one axis (a small box beside a wall, in the wall's cell: the breakfast room's
-    contacts found in 3.4 s instead of 4.6 s with the cells tested first)."""
+    part along one axis (a small box beside a wall, in the wall's cell)."""
     if len(queried) == 0 or len(listed) == 0:
         return []
     first_l, spans_l = _cells(low_l[listed], high_l[listed], origin, cell)
