@@ -22,6 +22,7 @@ from .solve.levels import Solution, solve
 from .transport.arriving import ArrivingLight
 from .transport.direct import DirectLighting
 from .transport.formfactors import FormFactorEngine
+from .util.hugepages import without_huge_page_advice
 from .util.progress import ProgressCallback, Stages, relayed, spans
 
 # Each stage's share of the progress bar: about what it takes of a typical bake.
@@ -125,8 +126,11 @@ class BakeSession:
     def bake(self, scene: Scene, progress: ProgressCallback | None = None) -> BakeResult:
         """``core.bake``'s result for ``scene``, re-solved when only its colours changed since
         this session's last bake afresh (then ``stats["resolved"]`` is True). The bake runs on a
-        worker thread; ``progress`` is called from this one (``progress.relayed``)."""
-        result, kept = relayed(lambda report: self._baked(scene, report), progress)
+        worker thread; ``progress`` is called from this one (``progress.relayed``). NumPy's
+        huge-page advice is withheld meanwhile where the kernel would stall on it
+        (``util.hugepages``)."""
+        with without_huge_page_advice():
+            result, kept = relayed(lambda report: self._baked(scene, report), progress)
         self._kept = kept  # only for a bake not cancelled, not even at its last report
         return result
 
