@@ -17,6 +17,15 @@ SETTINGS = {  # /sys/kernel/mm/transparent_hugepage/defrag as kernels write it, 
 }
 
 
+@pytest.fixture(autouse=True)
+def advice_given():
+    """NumPy's advice on at the start of each test (as it is by default on Linux), as it was after."""
+    setter = hugepages._advice_setter()
+    previous = setter(True)
+    yield
+    setter(previous)
+
+
 def advised() -> bool:
     """NumPy's current advice, left as it was."""
     setter = hugepages._advice_setter()
@@ -41,7 +50,6 @@ def test_no_setting_no_stall(tmp_path, monkeypatch):
 def test_the_advice_is_withheld_inside_nested_blocks_and_given_back(tmp_path, monkeypatch, stalls):
     (tmp_path / "defrag").write_text("always defer defer+madvise [madvise] never" if stalls else "[never]")
     monkeypatch.setattr(hugepages, "DEFRAG", tmp_path / "defrag")
-    assert hugepages._advice_setter() is not None and advised()
     with hugepages.without_huge_page_advice():
         assert advised() is not stalls
         with hugepages.without_huge_page_advice():
