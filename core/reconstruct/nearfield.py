@@ -340,8 +340,7 @@ def _near_pairs(points: np.ndarray, normals: np.ndarray, sizes: np.ndarray, mesh
     point_axes = [np.ascontiguousarray(points[:, axis]) for axis in range(3)]
     centroid_axes = [np.ascontiguousarray(mesh.patch_centroids[candidates, axis]) for axis in range(3)]
     normal_axes = [np.ascontiguousarray(mesh.patch_normals[candidates, axis]) for axis in range(3)]
-    candidate_edges = edges[candidates]
-    reach2 = (NEAR_REACH * candidate_edges) ** 2
+    candidate_edges, reach2 = edges[candidates], reach[nonempty] ** 2
 
     def may_see(receivers: np.ndarray, chosen: np.ndarray) -> np.ndarray:
         # close enough, with the point not on or behind the patch's plane (its own surface, most of
