@@ -96,10 +96,11 @@ class BakeSession:
 
     A re-solve solves on the first bake's last patches (its refinement levels are not redone)
     and finds the form factors kept (progressive's columns while they fit ``column_cache``;
-    Jacobi's and Gauss-Seidel's matrix; where the final gather's rays land); Monte Carlo traces
-    its particles again and the hierarchical solver links again. It matches a fresh bake of the
-    new colours within the bake's error estimate (tests/core/test_session.py; docs/methods.md,
-    "Re-solves"). ``keep=False``: bakes that keep nothing (``core.bake``).
+    Jacobi's and Gauss-Seidel's matrix; where the final gather's rays land; Monte Carlo's
+    particles' paths, read with the new colours unless surfaces grew brighter or the light moved:
+    ``montecarlo.ParticlePaths.reusable``); the hierarchical solver links again. It matches a
+    fresh bake of the new colours within the bake's error estimate (tests/core/test_session.py;
+    docs/methods.md, "Re-solves"). ``keep=False``: bakes that keep nothing (``core.bake``).
     """
 
     def __init__(self, method: str = "raycast", solver: str = "progressive", keep: bool = True, **knobs) -> None:

@@ -21,9 +21,6 @@ from .progressive import ColumnCache, ShootingState, progressive
 COARSE_TOLERANCE = 10
 # With Monte Carlo, the share of the stage's progress the shots take.
 SHOTS_SHARE = 0.5
-# Monte Carlo's answers a session keeps, each for a set of reflectances: a re-solve of one of them
-# with the lights' colour or strength changed scales it instead of tracing again.
-KEPT_TRACES = 4
 
 
 @dataclass
@@ -203,25 +200,21 @@ class _Levels:
         self.radiosity = radiosity
         return radiosity
 
-    def _particles(self, mesh, visibility: Visibility, particles: int, stages: Stages) -> np.ndarray:
-        """X (P, C) for the unshot light: ``montecarlo.trace``'s, or a kept one scaled where only
-        the lights' colour or strength changed since (``montecarlo.channel_scale``), as a fresh
-        trace would give it: its particles would be the same."""
+    def _particles(self, mesh, visibility: Visibility, particles: int, stages: Stages) -> tuple[np.ndarray, bool]:
+        """X (P, C) for the unshot light, and whether particles were traced for it: the paths of
+        the last bake's particles are read with the colours of this one where they are about as
+        good as new ones (``montecarlo.ParticlePaths.reusable``: a light's colour or strength, or
+        reflectances that do not grow, changed since), else paths are traced and kept."""
         unshot, reflectance = self.state.unshot, mesh.patch_reflectance[:, : self.channels]
-        traces = self.kept.setdefault("traces", [])  # the last bakes' (unshot, reflectance, X), latest first
-        reused = None
-        for index, (traced_unshot, traced_reflectance, traced) in enumerate(traces):
-            scale = montecarlo.channel_scale(traced_unshot, unshot) \
-                if np.array_equal(traced_reflectance, reflectance) else None
-            if scale is not None:
-                reused, future = index, traced * scale
-                break
-        if reused is None:
-            future = stages.run("tracing particles", (0.0, 0.5), montecarlo.trace, mesh, visibility, unshot,
-                                reflectance, particles, self.settings.seed, timer="monte_carlo")
-        traces.insert(0, (unshot.copy(), reflectance.copy(), future) if reused is None else traces.pop(reused))
-        del traces[KEPT_TRACES:]
-        return future
+        paths = self.kept.get("paths")
+        traced = paths is None or not paths.reusable(mesh, unshot, reflectance)
+        if traced:
+            paths = self.kept["paths"] = stages.run(
+                "tracing particles", (0.0, 0.4), montecarlo.trace_paths, mesh, visibility, unshot, reflectance,
+                particles, self.settings.seed, timer="monte_carlo")
+        future = stages.run("reading the particles' paths", (0.4, 0.5), lambda report: paths.future(
+            mesh, unshot, reflectance, report), timer="paths")
+        return future, traced
 
     def _gather(self, radiosity: np.ndarray, report) -> np.ndarray:
         mesh = self.light.mesh
@@ -240,9 +233,10 @@ class _Levels:
                                     owners=mesh.patch_triangle[: mesh.front_patch_count], casting=mesh.front_casts,
                                     opacity=mesh.front_opacity)
         particles = montecarlo.particle_count(mesh.patch_count, settings.monte_carlo_rays)
-        future = self._particles(mesh, visibility, particles, stages)
+        future, traced = self._particles(mesh, visibility, particles, stages)
         radiosity = state.radiosity[: mesh.patch_count] - state.unshot + future
-        self.stats["monte_carlo"] = {"particles": particles, "gather_rays": settings.monte_carlo_rays}
+        self.stats["monte_carlo"] = {"particles": particles, "gather_rays": settings.monte_carlo_rays,
+                                     "traced": traced}
         if engine.method == "hemicube":  # the estimate keeps the unshot light's bound
             return radiosity, stages.run("gathering at vertices", (0.5, 1.0), self._gather, radiosity,
                                          timer="gather"), None

@@ -14,6 +14,10 @@ roulette), else stops. W / A is read over pools of neighbouring patches that fac
 and lie in one layer (``pooled``), each holding MIN_HITS particles' hits: unbiased over the pool,
 a pool's noise about 1 / sqrt(MIN_HITS) and falling as particles are added (pools shrink).
 
+The paths (``trace_paths``) are kept apart from the colours that weight them
+(``ParticlePaths.future``), so that a re-solve with other reflectances or other unshot light reads
+them again instead of tracing (importance sampling of the paths: ``ParticlePaths.reusable``).
+
 ``gather`` then reads X where colours are evaluated (a final gather, Lischinski, Tampieri and
 Greenberg 1993): G(x) = sum_j F(x, j) X_j = E[X at the first hit of a cosine-distributed ray
 from x], estimated from K stratified directions. A point so averages K patches' values, and their
@@ -53,6 +57,9 @@ LAYERS_PER_CELL = 4
 # error, however few its rays (docs/notes/experiments.md, "Where the breakfast room's error is").
 PARTICLES_PER_RAY = 1 / 16
 MIN_PARTICLES_PER_PATCH = 16
+# Paths traced for other colours are read again (``ParticlePaths.reusable``) while the variance of the
+# power their particles carry is at most this times that of particles traced for the colours.
+REUSE_VARIANCE = 1.25
 
 @dataclass(frozen=True)
 class Gathered:
@@ -190,72 +197,168 @@ def trace(mesh: Discretization, visibility: Visibility, unshot: np.ndarray, refl
     """(P, C) the particle-tracing estimate of X = U + rho F X for ``unshot`` U (P, C) and
     ``reflectance`` rho (P, C), from ``particles`` paths (see the module docstring), the power
     arriving read over pools of patches (``pooled``)."""
-    surfaces = Surfaces(mesh, visibility)
-    # each channel's share of the power counts alike, whatever its scale: light scaled per channel
-    # (a light's colour or strength) sends the same particles, so X scales with it (``channel_scale``)
-    power_shares = mesh.patch_areas[:, None] * np.abs(unshot)
-    channel_power = power_shares.sum(axis=0)
-    weights = (power_shares / np.where(channel_power > 0, channel_power, 1.0)).sum(axis=1)
+    paths = trace_paths(mesh, visibility, unshot, reflectance, particles, seed, report)
+    return paths.future(mesh, unshot, reflectance)
+
+
+@dataclass(frozen=True)
+class ParticlePaths:
+    """Where the particles of ``trace_paths`` landed, bounce after bounce, to be read with the
+    colours they were traced for or others (``future``).
+
+    sources : (n,) int32 the patch each particle left.
+    landings : (L,) int32 the patch of each landing, bounce 0's first, then bounce 1's, ...
+    came_from : (L,) int32 for a landing of bounce 0 the particle, after it the landing of the
+        bounce before from which the particle went on.
+    bounce_starts : (G + 1,) where each bounce's landings start in ``landings``.
+    sampling : (P,) the chance p_q that a particle leaves patch q (summing to 1).
+    survival : (P,) the chance s_q that a particle that landed on q goes on.
+    stops : (P,) the chance that a particle meeting q stops there (its opacity).
+    hits : (P,) the landings on each patch.
+    """
+
+    sources: np.ndarray
+    landings: np.ndarray
+    came_from: np.ndarray
+    bounce_starts: np.ndarray
+    sampling: np.ndarray
+    survival: np.ndarray
+    stops: np.ndarray
+    hits: np.ndarray
+
+    def future(self, mesh: Discretization, unshot: np.ndarray, reflectance: np.ndarray,
+               report: Report = quiet) -> np.ndarray:
+        """(P, C) the estimate of X = U + rho F X that these paths give for ``unshot`` U (P, C)
+        and ``reflectance`` rho (P, C): a particle leaving q carries A_q U_q / (n p_q), and at
+        each patch j it went on from its weight is multiplied by rho_j / (opacity_j s_j). It is
+        unbiased for any U and rho (importance sampling of the paths) where p_q > 0 wherever
+        U_q != 0 and s_j > 0 wherever rho_j != 0; ``reusable`` says whether it is about as
+        precise as paths traced for them."""
+        channels = unshot.shape[1]
+        power = np.zeros_like(unshot)
+        np.divide(mesh.patch_areas[:, None] * unshot, self.sampling[:, None] * len(self.sources), out=power,
+                  where=self.sampling[:, None] > 0)
+        onward = np.zeros_like(reflectance)
+        np.divide(reflectance, (self.stops * self.survival)[:, None], out=onward, where=self.survival[:, None] > 0)
+        weight = np.empty((len(self.landings), channels))
+        starts = self.bounce_starts
+        if len(starts) > 1:
+            weight[: starts[1]] = power[self.sources[self.came_from[: starts[1]]]]
+        for start, end in zip(starts[1:-1], starts[2:]):
+            before = self.came_from[start:end]
+            weight[start:end] = weight[before] * onward[self.landings[before]]
+            report(end / len(self.landings) / 2)
+        weight /= self.stops[self.landings, None]  # what each brings where it stops
+        arrived = np.empty((mesh.patch_count, channels))
+        for channel in range(channels):
+            arrived[:, channel] = np.bincount(self.landings, weight[:, channel], minlength=mesh.patch_count)
+            report(0.5 + (channel + 1) / channels / 2)
+        return unshot + reflectance * pooled(mesh, arrived, self.hits)
+
+    def reusable(self, mesh: Discretization, unshot: np.ndarray, reflectance: np.ndarray) -> bool:
+        """Whether ``future`` of ``unshot`` (P, C) and ``reflectance`` (P, C) is unbiased and
+        about as precise as that of paths traced for them: no particle's weight grows where it
+        goes on (rho_j / opacity_j <= s_j), and each lit channel's share of the power leaving
+        the patches, a_q, is sampled with a variance sum_q a_q^2 / p_q at most REUSE_VARIANCE
+        times that of the chances paths traced for it would have."""
+        if (reflectance > (self.stops * self.survival)[:, None] * (1 + 1e-12)).any():
+            return False
+        shares = _power_shares(mesh, unshot)
+        if (shares[self.sampling <= 0] > 0).any():
+            return False
+        fresh = _sampling(shares)
+        if fresh is None:
+            return True
+        lit = shares.sum(axis=0) > 0
+        now = (shares[:, lit] ** 2 / np.where(self.sampling > 0, self.sampling, 1.0)[:, None]).sum(axis=0)
+        best = (shares[:, lit] ** 2 / np.where(fresh > 0, fresh, 1.0)[:, None]).sum(axis=0)
+        return bool((now <= REUSE_VARIANCE * best).all())
+
+
+def _power_shares(mesh: Discretization, unshot: np.ndarray) -> np.ndarray:
+    """(P, C) each patch's share of the power leaving the patches, channel by channel (A_q |U_q|
+    over its sum): light scaled per channel (a light's colour or strength) has the same shares."""
+    power = mesh.patch_areas[:, None] * np.abs(unshot)
+    total = power.sum(axis=0)
+    return power / np.where(total > 0, total, 1.0)
+
+
+def _sampling(shares: np.ndarray) -> np.ndarray | None:
+    """(P,) the chance of each patch to send a particle: its shares of the power (P, C) summed over
+    the channels, over their sum (each lit channel counts alike); None if there is no light."""
+    weights = shares.sum(axis=1)
     total = weights.sum()
-    channels = unshot.shape[1]
-    if particles <= 0 or total <= 0:
-        return unshot.copy()
+    return weights / total if total > 0 else None
+
+
+def trace_paths(mesh: Discretization, visibility: Visibility, unshot: np.ndarray, reflectance: np.ndarray,
+                particles: int, seed: int = 0, report: Report = quiet) -> ParticlePaths:
+    """The paths of ``particles`` particles carrying ``unshot`` U (P, C) between patches of
+    ``reflectance`` rho (P, C) (see the module docstring), to be read by ``ParticlePaths.future``."""
+    surfaces = Surfaces(mesh, visibility)
+    sampling = _sampling(_power_shares(mesh, unshot))
+    if particles <= 0 or sampling is None:
+        sampling = np.zeros(mesh.patch_count)
+        particles = 0
     # systematic sampling: patch q leaves floor(c_q + offset) - floor(c_{q-1} + offset) particles
-    cumulative = np.cumsum(weights) / total * particles
+    cumulative = np.cumsum(sampling) * particles
     offset = np.random.default_rng([seed, 0]).random()
     counts = np.diff(np.floor(np.concatenate([[0.0], cumulative]) + offset)).astype(np.int64)
-    sources = runs(counts)  # np.repeat(np.arange(P), counts), without holding the GIL
-    power = np.zeros_like(unshot)
-    np.divide(mesh.patch_areas[:, None] * unshot * total, weights[:, None] * particles, out=power,
-              where=weights[:, None] > 0)
-    # a particle stops at patch j with the chance opacity_j (``Surfaces.hit``): there it
-    # brings 1 / opacity_j of its power and is reflected with reflectance / opacity_j
+    sources = runs(counts).astype(np.int32)  # np.repeat(np.arange(P), counts), without holding the GIL
+    # a particle stops at patch j with the chance opacity_j (``Surfaces.hit``) and goes on from it
+    # with the chance s_j = max_c rho_j,c / opacity_j (Russian roulette)
     stops = np.ones(mesh.patch_count) if mesh.patch_opacity is None else np.maximum(mesh.patch_opacity, 1e-12)
-    reflecting = reflectance / stops[:, None]
-    survival = reflecting.max(axis=1)
+    survival = (reflectance / stops[:, None]).max(axis=1, initial=0.0)
     starts = range(0, len(sources), PARTICLES_PER_BLOCK)
 
-    def block(start: int) -> np.ndarray:
-        """(P, C + 1): the power that arrived at each patch, and how many particles did."""
+    def block(start: int) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Per bounce, the patches the block's particles landed on and where each came from (for
+        bounce 0 its particle in the block, after it its landing of the bounce before)."""
         rng = np.random.default_rng([seed, 1, start])
         patch = sources[start:start + PARTICLES_PER_BLOCK]
-        weight = power[patch]
+        came_from = np.arange(len(patch))
         normal = mesh.patch_normals[patch]
         point = uniform_points(mesh.patch_corners[patch], rng.random((len(patch), 2)))
-        landings, brought = [], []  # per bounce; summed per patch once, not once per bounce
+        bounces = []
         while len(patch):
             directions = cosine_directions(normal, rng.random((len(patch), 2)))
             patch, point = surfaces.hit(point, directions, normal, rng)
-            landed = patch >= 0
-            patch, point, weight = patch[landed], point[landed], weight[landed]
-            landings.append(patch)
-            brought.append(weight / stops[patch, None])
-            survives = rng.random(len(patch)) < survival[patch]
-            patch, point, weight = patch[survives], point[survives], weight[survives]
-            weight = weight * reflecting[patch] / survival[patch, None]
+            landed = np.flatnonzero(patch >= 0)
+            patch, point = patch[landed], point[landed]
+            bounces.append((patch.astype(np.int32), came_from[landed].astype(np.int32)))
+            survives = np.flatnonzero(rng.random(len(patch)) < survival[patch])
+            patch, point, came_from = patch[survives], point[survives], survives
             normal = mesh.patch_normals[patch]
-        landings, brought = np.concatenate(landings), np.concatenate(brought)
-        arrived = np.empty((mesh.patch_count, channels + 1))
-        for channel in range(channels):
-            arrived[:, channel] = np.bincount(landings, brought[:, channel], minlength=mesh.patch_count)
-        arrived[:, channels] = np.bincount(landings, minlength=mesh.patch_count)
-        return arrived
+        return bounces
 
-    arrived = np.zeros((mesh.patch_count, channels + 1))
+    blocks = []
     for done, part in enumerate(parallel.map_ordered(block, starts)):
-        arrived += part
+        blocks.append(part)
         report((done + 1) / len(starts))
-    return unshot + reflectance * pooled(mesh, arrived[:, :channels], arrived[:, channels])
+    landings, came_from, bounce_starts = _joined(blocks, starts)
+    return ParticlePaths(sources, landings, came_from, bounce_starts, sampling, survival, stops,
+                         np.bincount(landings, minlength=mesh.patch_count).astype(np.float64))
 
 
-def channel_scale(before: np.ndarray, after: np.ndarray, tolerance: float = 1e-9) -> np.ndarray | None:
-    """(C,) the factors k with ``after`` = ``before`` k, channel by channel (P, C), to ``tolerance``
-    of the largest of ``after``; None if there are none. ``trace`` of ``after`` is then ``trace``
-    of ``before`` times k, to rounding: its particles are the same, their power scaled."""
-    norms = (before * before).sum(axis=0)
-    scale = np.divide((before * after).sum(axis=0), norms, out=np.zeros(before.shape[1]), where=norms > 0)
-    largest = np.abs(after).max(initial=0.0)
-    return scale if np.abs(after - before * scale).max(initial=0.0) <= tolerance * largest else None
+def _joined(blocks: list[list[tuple[np.ndarray, np.ndarray]]],
+            starts: range) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The blocks' bounces (``trace_paths``) as one array of landings, bounce by bounce, with
+    where each came from numbered over all the particles and all the landings."""
+    landings, came_from, bounce_starts = [], [], [0]
+    offsets = np.array(starts, dtype=np.int64)  # where each block's bounce before starts
+    for bounce in range(max((len(bounces) for bounces in blocks), default=0)):
+        lengths = np.zeros(len(blocks), np.int64)
+        for index, bounces in enumerate(blocks):
+            if bounce < len(bounces):
+                patch, source = bounces[bounce]
+                landings.append(patch)
+                came_from.append(source + offsets[index].astype(np.int32))
+                lengths[index] = len(patch)
+        offsets = bounce_starts[-1] + np.concatenate([[0], np.cumsum(lengths)[:-1]])
+        bounce_starts.append(bounce_starts[-1] + int(lengths.sum()))
+    if not landings:
+        return np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(1, np.int64)
+    return np.concatenate(landings), np.concatenate(came_from), np.array(bounce_starts, np.int64)
 
 
 def pooled(mesh: Discretization, arrived: np.ndarray, hits: np.ndarray, min_hits: float = MIN_HITS) -> np.ndarray:

@@ -10,7 +10,8 @@ import pytest
 from core import Scene, bake
 from core.transport.analytic import point_to_triangle
 from core.mesh.discretize import discretize
-from core.solve.montecarlo import MIN_HITS, channel_scale, cosine_directions, gather, pooled, trace, uniform_points
+from core.solve.montecarlo import (MIN_HITS, cosine_directions, gather, pooled, trace, trace_paths,
+                                   uniform_points)
 from core.rays.visibility import Visibility
 from tests.core.scenes import box, grid, lit_room, merge, quad, uniform
 
@@ -55,27 +56,62 @@ def test_particles_in_a_furnace_give_emission_over_one_minus_reflectance(reflect
     assert np.allclose(future[:, 0], future[:, 1]) and np.allclose(future[:, 1], future[:, 2])
 
 
-def test_light_scaled_per_channel_sends_the_same_particles_with_their_power_scaled():
+def test_light_scaled_per_channel_reads_the_same_paths_with_their_power_scaled():
     """A light's colour or strength changed scales the unshot light by k per channel. The particles
-    are chosen by each channel's share of the power, not its size, so trace(U k) is trace(U) k to
-    rounding, even for channels 1e6 apart (by the power summed over channels, the dim channel
-    would be sampled by other particles); ``channel_scale`` finds k, and nothing for light that
-    changed otherwise (one patch's in one channel)."""
+    are chosen by each channel's share of the power, not its size, so the paths of U are those of
+    U k, and reading them again gives trace(U k) = trace(U) k to rounding, even for channels 1e6
+    apart (by the power summed over channels, the dim channel would be sampled by other particles)."""
     scene = lit_room()
     mesh = discretize(scene, 0.25)
     rng = np.random.default_rng(4)
     unshot = rng.random((mesh.patch_count, 3)) * (rng.random((mesh.patch_count, 1)) < 0.3)
     scale = np.array([1e-3, 1.0, 1e3])
-    before = trace(mesh, rays_of(mesh), unshot, mesh.patch_reflectance, 20_000)
+    paths = trace_paths(mesh, rays_of(mesh), unshot, mesh.patch_reflectance, 20_000)
+    before = paths.future(mesh, unshot, mesh.patch_reflectance)
     after = trace(mesh, rays_of(mesh), unshot * scale, mesh.patch_reflectance, 20_000)
     np.testing.assert_allclose(after, before * scale, rtol=1e-12, atol=0)
-    np.testing.assert_allclose(channel_scale(unshot, unshot * scale), scale, rtol=1e-12)
-    other = unshot * scale
-    other[np.flatnonzero(unshot[:, 0])[0], 0] *= 1.5
-    assert channel_scale(unshot, other) is None
-    dark = unshot.copy()
-    dark[:, 2] = 0.0
-    assert channel_scale(dark, dark * scale) is not None and channel_scale(dark, unshot) is None
+    assert paths.reusable(mesh, unshot * scale, mesh.patch_reflectance)
+    np.testing.assert_allclose(paths.future(mesh, unshot * scale, mesh.patch_reflectance), after, rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("reflectance", [0.0, 0.5, 0.85])
+def test_paths_traced_in_a_brighter_furnace_read_a_darker_one_exactly(reflectance):
+    """Paths traced in a closed box of reflectance 0.9 and read with a lower one (the weight of a
+    particle that goes on multiplied by rho_new / s_old) and with other emission (each patch's
+    particles weighted by its new share over its old chance): unbiased, so the total is exact but
+    for the noise (the area-weighted mean within 1 %, as in the furnace above) and each patch
+    within 10 %. Emission on half the patches only: X = E / (1 - rho) holds for the total alone."""
+    mesh = discretize(uniform(*box(), 0.9, 2.0), 0.25)
+    traced = np.full((mesh.patch_count, 3), 2.0)
+    paths = trace_paths(mesh, rays_of(mesh), traced, mesh.patch_reflectance, 1_000_000)
+    darker = np.full((mesh.patch_count, 3), reflectance)
+    assert paths.reusable(mesh, traced, darker)
+    future = paths.future(mesh, traced, darker)
+    areas = mesh.patch_areas
+    np.testing.assert_allclose(areas @ future / areas.sum(), 2.0 / (1 - reflectance), rtol=0.01)
+    np.testing.assert_allclose(future, 2.0 / (1 - reflectance), rtol=0.10)
+    half = traced * (mesh.patch_centroids[:, :1] < np.median(mesh.patch_centroids[:, 0]))
+    assert paths.reusable(mesh, half, darker) == (areas @ half[:, 0] / (areas @ traced[:, 0]) > 1 / 1.25)
+    np.testing.assert_allclose(areas @ paths.future(mesh, half, darker) / areas.sum(),
+                               areas @ half / areas.sum() / (1 - reflectance), rtol=0.01)
+
+
+def test_paths_are_traced_again_for_brighter_surfaces_and_light_they_never_carried():
+    """Reading paths is unbiased only where a particle could go on (s_j > 0 where rho_j > 0) and
+    could leave (p_q > 0 where U_q > 0); brighter surfaces would make particles' weights grow, and
+    light moved to where few particles left would be sampled poorly: ``reusable`` refuses all three.
+    Paths traced for a quarter of the patches lit and the rest at 1 %: that rest holds 3 % of the
+    particles; lit evenly, it holds 3 / 4 of the power, and the variance is 19 times a fresh trace's."""
+    mesh = discretize(uniform(*box(), 0.5, 2.0), 0.25)
+    quarter = np.zeros((mesh.patch_count, 3))
+    quarter[: mesh.patch_count // 4] = 1.0
+    dim_rest = np.maximum(quarter, 0.01)
+    paths = trace_paths(mesh, rays_of(mesh), dim_rest, mesh.patch_reflectance, 10_000)
+    assert paths.reusable(mesh, dim_rest * [1.0, 2.0, 3.0], mesh.patch_reflectance * 0.5)
+    assert not paths.reusable(mesh, dim_rest, mesh.patch_reflectance * 1.1)
+    assert not paths.reusable(mesh, np.ones_like(dim_rest), mesh.patch_reflectance)
+    assert not trace_paths(mesh, rays_of(mesh), quarter, mesh.patch_reflectance, 10_000).reusable(
+        mesh, dim_rest, mesh.patch_reflectance)
 
 
 def test_a_closed_box_of_uniform_value_gathers_exactly_that_value():

@@ -19,7 +19,7 @@ import pytest
 from core import BakeCancelled, BakeSession, Environment, PointLight, Scene, SunLight, bake
 from core.util.progress import stop_abandoned
 
-from scenes import grid, lit_room
+from scenes import box, grid, lit_room, uniform
 
 ROUNDING = 1e-9  # of the largest colour: same system, same rays, same patches
 # A new reflectance renumbers the near field's interpolation nodes (they are keyed by their
@@ -50,16 +50,13 @@ def assert_same_colours(actual, expected, tolerance=ROUNDING):
 KNOBS = dict(patch_size=0.2, rays_per_form_factor=4, tolerance=1e-6)
 
 
-@pytest.mark.parametrize("solver, extra", [("progressive", {}), ("jacobi", {}),
-                                           ("progressive", {"monte_carlo_rays": 16, "max_shots": 20})])
-def test_a_resolve_of_new_colours_equals_a_fresh_bake(solver, extra):
-    """Also with Monte Carlo, whose particles are traced again from the new unshot light (with the
-    same seed, as a fresh bake traces them) and whose final gather's rays are kept."""
+@pytest.mark.parametrize("solver", ["progressive", "jacobi"])
+def test_a_resolve_of_new_colours_equals_a_fresh_bake(solver):
     scene = lit_by_everything()
-    knobs = KNOBS | extra
+    knobs = KNOBS
     session = BakeSession(solver=solver, **knobs)
     first = session.bake(scene)
-    assert not first.stats["resolved"] and ("monte_carlo" in first.stats) == bool(extra)
+    assert not first.stats["resolved"]
     reflectance = scene.reflectance.copy()
     reflectance[2:4] = [0.1, 0.2, 0.7]  # the red wall turns blue
     environment = Environment(scene.environment.radiance * 3.0)  # the world's strength tripled
@@ -79,30 +76,54 @@ def test_a_resolve_of_new_colours_equals_a_fresh_bake(solver, extra):
     assert_same_colours(session.bake(scene), first)  # and back
 
 
-def test_a_light_of_another_colour_re_solves_monte_carlo_without_tracing_again():
-    """The room's one emitter turns warmer and brighter: every light in the scene is scaled per
-    channel, so are Monte Carlo's unshot light and its answer (its particles chosen by each
-    channel's share: test_montecarlo.py). The re-solve scales the particles' answer instead of
-    tracing them again, and gives what a fresh bake traces, to rounding; so does a later one whose
-    reflectances are the first's again, after a re-solve of others."""
-    scene = lit_room()
-    knobs = KNOBS | {"monte_carlo_rays": 16}
-    session = BakeSession(**knobs)
-    session.bake(scene)
-    warmer = recoloured(scene, emission=scene.emission * [3.0, 1.0, 0.2])
-    again = session.bake(warmer)
-    assert again.stats["resolved"] and "monte_carlo" not in again.stats["seconds"]
-    assert_same_colours(again, bake(warmer, **knobs))
-    recoloured_walls = scene.reflectance.copy()
-    recoloured_walls[2:4] = [0.1, 0.2, 0.7]
-    changed = recoloured(warmer, reflectance=recoloured_walls)  # the particles' paths change: traced again
-    again = session.bake(changed)
-    assert again.stats["resolved"] and "monte_carlo" in again.stats["seconds"]
-    assert_same_colours(again, bake(changed, **knobs), NEW_SAMPLES)
-    cooler = recoloured(scene, emission=scene.emission * [0.5, 1.0, 2.0])  # the first colours: their trace, scaled
-    again = session.bake(cooler)
-    assert again.stats["resolved"] and "monte_carlo" not in again.stats["seconds"]
-    assert_same_colours(again, bake(cooler, **knobs))
+def test_monte_carlo_re_solves_read_the_kept_paths_unless_surfaces_grow_brighter():
+    """Monte Carlo's particles' paths are kept (their final gather's rays too) and read again with
+    the new colours where that is unbiased and about as precise (``ParticlePaths.reusable``). In a
+    closed grey box of reflectance 0.8 lit from its ceiling the particles carry most of the light.
+    The ceiling turns warmer and brighter: every light is scaled per channel and the paths are
+    those a fresh bake traces, their power scaled: the same colours to rounding. Coloured walls,
+    each channel as dark as the grey or darker: the paths read with the new reflectances. Against
+    the converged bake of the same patches (no Monte Carlo), the re-solves' error over three seeds
+    is at most 1.25 times the fresh bakes' (the variance of the particles' power is at most
+    REUSE_VARIANCE = 1.25 times that of fresh ones, so the error sqrt(1.25) = 1.12 times, plus
+    noise; measured 0.90 times; reading them with each patch's mean reflectance instead gives 3.2
+    times) and within the estimate. A wall brighter than the grey: traced again, as a fresh bake
+    traces."""
+    scene = uniform(*box(), 0.8, 0.0)
+    emission = np.zeros_like(scene.emission)
+    emission[:2] = [5.0, 4.0, 3.0]
+    scene = recoloured(scene, emission=emission)
+    knobs = KNOBS | {"monte_carlo_rays": 1024}
+    coloured = scene.reflectance.copy()
+    coloured[2:6] = [0.3, 0.5, 0.7]
+    coloured[6:] = [0.7, 0.6, 0.5]
+    changed = recoloured(scene, reflectance=coloured, emission=scene.emission * [0.2, 1.0, 2.0])
+    converged = bake(changed, **KNOBS)
+    errors = []
+    for seed in range(3):
+        session = BakeSession(**knobs, seed=seed)
+        assert session.bake(scene).stats["monte_carlo"]["traced"]
+        warmer = recoloured(scene, emission=scene.emission * [3.0, 1.0, 0.2])
+        again = session.bake(warmer)
+        assert again.stats["resolved"] and not again.stats["monte_carlo"]["traced"]
+        assert_same_colours(again, bake(warmer, **knobs, seed=seed))
+        again, fresh = session.bake(changed), bake(changed, **knobs, seed=seed)
+        assert again.stats["resolved"] and not again.stats["monte_carlo"]["traced"]
+        errors.append([relative_rms(again, converged), relative_rms(fresh, converged)])
+        assert errors[-1][0] <= again.stats["error_estimate"]["total"]
+    mean_error = np.mean(errors, axis=0)
+    assert mean_error[0] <= 1.25 * mean_error[1]
+    brighter = scene.reflectance.copy()
+    brighter[6:8] = 0.9
+    brighter = recoloured(scene, reflectance=brighter)
+    again = session.bake(brighter)
+    assert again.stats["resolved"] and again.stats["monte_carlo"]["traced"]
+    assert_same_colours(again, bake(brighter, **knobs, seed=seed), NEW_SAMPLES)
+
+
+def relative_rms(result, truth) -> float:
+    """The RMS of the corner colours' difference over that of ``truth``'s colours."""
+    return float(np.sqrt(((result.corner_colors - truth.corner_colors) ** 2).mean() / (truth.corner_colors ** 2).mean()))
 
 
 def test_the_light_of_each_source_alone_adds_up_to_all_of_it():
@@ -135,9 +156,7 @@ def test_with_refinement_levels_a_resolve_is_within_the_estimate_of_a_fresh_bake
     changed = recoloured(scene, emission=scene.emission * [1.0, 0.5, 0.2])
     again, fresh = session.bake(changed), bake(changed, **knobs)
     assert again.stats["resolved"]
-    difference = np.sqrt(((again.corner_colors - fresh.corner_colors) ** 2).mean()) / np.sqrt(
-        (fresh.corner_colors ** 2).mean())
-    assert difference <= fresh.stats["error_estimate"]["total"]
+    assert relative_rms(again, fresh) <= fresh.stats["error_estimate"]["total"]
 
 
 def moved_vertex(scene):
