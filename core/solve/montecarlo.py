@@ -214,7 +214,7 @@ class ParticlePaths:
     sampling : (P,) the chance p_q that a particle leaves patch q (summing to 1).
     survival : (P,) the chance s_q that a particle that landed on q goes on.
     stops : (P,) the chance that a particle meeting q stops there (its opacity).
-    hits : (P,) the landings on each patch.
+    pool : (P,) the pool each patch reads the power arriving over (``pools`` of its landings).
     """
 
     sources: np.ndarray
@@ -224,7 +224,7 @@ class ParticlePaths:
     sampling: np.ndarray
     survival: np.ndarray
     stops: np.ndarray
-    hits: np.ndarray
+    pool: np.ndarray
 
     def future(self, mesh: Discretization, unshot: np.ndarray, reflectance: np.ndarray,
                report: Report = quiet) -> np.ndarray:
@@ -233,27 +233,34 @@ class ParticlePaths:
         each patch j it went on from its weight is multiplied by rho_j / (opacity_j s_j). It is
         unbiased for any U and rho (importance sampling of the paths) where p_q > 0 wherever
         U_q != 0 and s_j > 0 wherever rho_j != 0; ``reusable`` says whether it is about as
-        precise as paths traced for them."""
-        channels = unshot.shape[1]
+        precise as paths traced for them. The channels go on the thread pool."""
         power = np.zeros_like(unshot)
         np.divide(mesh.patch_areas[:, None] * unshot, self.sampling[:, None] * len(self.sources), out=power,
                   where=self.sampling[:, None] > 0)
         onward = np.zeros_like(reflectance)
         np.divide(reflectance, (self.stops * self.survival)[:, None], out=onward, where=self.survival[:, None] > 0)
-        weight = np.empty((len(self.landings), channels))
-        starts = self.bounce_starts
-        if len(starts) > 1:
-            weight[: starts[1]] = power[self.sources[self.came_from[: starts[1]]]]
-        for start, end in zip(starts[1:-1], starts[2:]):
-            before = self.came_from[start:end]
-            weight[start:end] = weight[before] * onward[self.landings[before]]
-            report(end / len(self.landings) / 2)
-        weight /= self.stops[self.landings, None]  # what each brings where it stops
-        arrived = np.empty((mesh.patch_count, channels))
-        for channel in range(channels):
-            arrived[:, channel] = np.bincount(self.landings, weight[:, channel], minlength=mesh.patch_count)
-            report(0.5 + (channel + 1) / channels / 2)
-        return unshot + reflectance * pooled(mesh, arrived, self.hits)
+        bounces = self.bounce_starts
+        first = self.sources[self.came_from[: bounces[1]]] if len(bounces) > 1 else np.zeros(0, np.int32)
+        steps = [(start, end, self.came_from[start:end]) for start, end in zip(bounces[1:-1], bounces[2:])]
+        steps = [(start, end, before, self.landings[before]) for start, end, before in steps]
+        stopping = None if mesh.patch_opacity is None else self.stops[self.landings]
+
+        def arrived(channel: int) -> np.ndarray:
+            """(P,) the power of ``channel`` the particles brought to each patch."""
+            weight = np.empty(len(self.landings))
+            np.take(power[:, channel], first, out=weight[: len(first)])
+            going_on = np.ascontiguousarray(onward[:, channel])
+            for start, end, before, left in steps:
+                np.multiply(weight[before], going_on[left], out=weight[start:end])
+            if stopping is not None:
+                weight /= stopping  # what each brings where it stops
+            return np.bincount(self.landings, weight, minlength=mesh.patch_count)
+
+        channels = []
+        for channel in parallel.map_ordered(arrived, range(unshot.shape[1])):
+            channels.append(channel)
+            report(len(channels) / unshot.shape[1])
+        return unshot + reflectance * read_pools(mesh, np.stack(channels, axis=1), self.pool)
 
     def reusable(self, mesh: Discretization, unshot: np.ndarray, reflectance: np.ndarray) -> bool:
         """Whether ``future`` of ``unshot`` (P, C) and ``reflectance`` (P, C) is unbiased and
@@ -337,7 +344,7 @@ def trace_paths(mesh: Discretization, visibility: Visibility, unshot: np.ndarray
         report((done + 1) / len(starts))
     landings, came_from, bounce_starts = _joined(blocks, starts)
     return ParticlePaths(sources, landings, came_from, bounce_starts, sampling, survival, stops,
-                         np.bincount(landings, minlength=mesh.patch_count).astype(np.float64))
+                         pools(mesh, np.bincount(landings, minlength=mesh.patch_count)))
 
 
 def _joined(blocks: list[list[tuple[np.ndarray, np.ndarray]]],
@@ -362,9 +369,22 @@ def _joined(blocks: list[list[tuple[np.ndarray, np.ndarray]]],
 
 
 def pooled(mesh: Discretization, arrived: np.ndarray, hits: np.ndarray, min_hits: float = MIN_HITS) -> np.ndarray:
-    """(P, C) power arriving per unit area, each patch's read over a pool of patches that
-    together hold ``min_hits`` particles' hits: a patch with that many alone, the others with
-    those of their cell of a grid that face about the same way (normals rounded to a lattice of
+    """(P, C) the power ``arrived`` (P, C) per unit area, each patch's read over its pool of
+    ``pools(mesh, hits, min_hits)``."""
+    return read_pools(mesh, arrived, pools(mesh, hits, min_hits))
+
+
+def read_pools(mesh: Discretization, arrived: np.ndarray, pool: np.ndarray) -> np.ndarray:
+    """(P, C) the power ``arrived`` (P, C) per unit area of each patch's ``pool`` (P,) labels."""
+    total_area = np.bincount(pool, mesh.patch_areas)
+    power = np.stack([np.bincount(pool, arrived[:, c]) for c in range(arrived.shape[1])], axis=1)
+    density = np.divide(power, total_area[:, None], out=np.zeros_like(power), where=total_area[:, None] > 0)
+    return density[pool]
+
+
+def pools(mesh: Discretization, hits: np.ndarray, min_hits: float = MIN_HITS) -> np.ndarray:
+    """(P,) labels 0, 1, ... of pools of patches that together hold ``min_hits`` of the particles'
+    ``hits`` (P,): a patch with that many alone, the others with those of their cell of a grid that face about the same way (normals rounded to a lattice of
     step 1/2) and lie in the same layer along their normal (n . (c - cell centre) floored in
     steps of spacing / LAYERS_PER_CELL), the spacing starting where the mean density gives min_hits per
     cell (sqrt(min_hits sum A / sum hits)) and doubled while a pool is short of them.
@@ -374,9 +394,9 @@ def pooled(mesh: Discretization, arrived: np.ndarray, hits: np.ndarray, min_hits
     moulding lit by the sky is not pooled with faces turned the same way a step behind it in
     shadow, whose darkness it would share)."""
     areas = mesh.patch_areas
-    if hits.sum() <= 0:
-        return np.zeros_like(arrived)
     pool = np.arange(len(areas))
+    if hits.sum() <= 0:
+        return pool
     next_pool = len(areas)  # pools are numbered after every patch alone, each round after the last
     short = np.flatnonzero(hits < min_hits)
     low = mesh.patch_centroids.min(axis=0)
@@ -395,12 +415,7 @@ def pooled(mesh: Discretization, arrived: np.ndarray, hits: np.ndarray, min_hits
             break
         short = short[np.bincount(group, hits[short])[group] < min_hits]
         spacing *= 2
-    _, pool = np.unique(pool, return_inverse=True)
-    pool = pool.reshape(-1)
-    total_area = np.bincount(pool, areas)
-    power = np.stack([np.bincount(pool, arrived[:, c]) for c in range(arrived.shape[1])], axis=1)
-    density = np.divide(power, total_area[:, None], out=np.zeros_like(power), where=total_area[:, None] > 0)
-    return density[pool]
+    return np.unique(pool, return_inverse=True)[1].reshape(-1)
 
 
 def gather(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
