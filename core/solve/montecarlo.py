@@ -11,7 +11,7 @@ power A_q U_q / (N p_q). The expected power reaching j from unit power leaving q
 A_q F_qj = A_j F_jq, so X_j = U_j + rho_j W_j / A_j with W_j the power that arrives at j; the
 particle goes on with the weight rho_j w / s_j with probability s_j = max_c rho_j,c (Russian
 roulette), else stops. W / A is read over pools of neighbouring patches that face the same way
-and lie in one layer (``pooled``), each holding MIN_HITS particles' hits: unbiased over the pool,
+and lie in one layer (``pools``), each holding MIN_HITS particles' hits: unbiased over the pool,
 a pool's noise about 1 / sqrt(MIN_HITS) and falling as particles are added (pools shrink).
 
 The paths (``trace_paths``) are kept apart from the colours that weight them
@@ -46,7 +46,7 @@ from ..util.spatial import ranks, runs
 # Particles or gather points per block of work on the thread pool.
 PARTICLES_PER_BLOCK = 1 << 15
 POINTS_PER_BLOCK = 1 << 11
-# Particles a pool of ``pooled`` must receive, and its layers' depth (LAYERS_PER_CELL per spacing):
+# Particles a pool of ``pools`` must receive, and its layers' depth (LAYERS_PER_CELL per spacing):
 # more hits per pool blur more and were no better on the benchmark scenes (docs/notes/experiments.md).
 MIN_HITS = 8
 LAYERS_PER_CELL = 4
@@ -57,9 +57,10 @@ LAYERS_PER_CELL = 4
 # error, however few its rays (docs/notes/experiments.md, "Where the breakfast room's error is").
 PARTICLES_PER_RAY = 1 / 16
 MIN_PARTICLES_PER_PATCH = 16
-# Paths traced for other colours are read again (``ParticlePaths.reusable``) while the variance of the
-# power their particles carry is at most this times that of particles traced for the colours.
-REUSE_VARIANCE = 1.25
+# Paths traced for other colours are read again (``ParticlePaths.reusable``) while the second moment
+# of the power their particles carry is at most this times that of particles traced for the colours
+# (so the noise at most sqrt(1.25) = 1.12 times; tests/core/test_session.py measures it).
+REUSE_MOMENT = 1.25
 
 @dataclass(frozen=True)
 class Gathered:
@@ -196,7 +197,7 @@ def trace(mesh: Discretization, visibility: Visibility, unshot: np.ndarray, refl
           particles: int, seed: int = 0, report: Report = quiet) -> np.ndarray:
     """(P, C) the particle-tracing estimate of X = U + rho F X for ``unshot`` U (P, C) and
     ``reflectance`` rho (P, C), from ``particles`` paths (see the module docstring), the power
-    arriving read over pools of patches (``pooled``)."""
+    arriving read over pools of patches (``pools``)."""
     paths = trace_paths(mesh, visibility, unshot, reflectance, particles, seed, report)
     return paths.future(mesh, unshot, reflectance)
 
@@ -228,33 +229,35 @@ class ParticlePaths:
 
     def future(self, mesh: Discretization, unshot: np.ndarray, reflectance: np.ndarray,
                report: Report = quiet) -> np.ndarray:
-        """(P, C) the estimate of X = U + rho F X that these paths give for ``unshot`` U (P, C)
-        and ``reflectance`` rho (P, C): a particle leaving q carries A_q U_q / (n p_q), and at
-        each patch j it went on from its weight is multiplied by rho_j / (opacity_j s_j). It is
-        unbiased for any U and rho (importance sampling of the paths) where p_q > 0 wherever
-        U_q != 0 and s_j > 0 wherever rho_j != 0; ``reusable`` says whether it is about as
-        precise as paths traced for them. The channels go on the thread pool."""
+        """(P, C) the estimate of X = U + rho W / A that these paths give for ``unshot`` U (P, C)
+        and ``reflectance`` rho (P, C), W the power arriving read over the pools: a particle
+        leaving q carries A_q U_q / (n p_q); each time it goes on from j its weight is multiplied
+        by rho_j / (opacity_j s_j), and where it stops at j it brings its weight / opacity_j. It
+        is unbiased for any U and rho (importance sampling of the paths) where p_q > 0 wherever
+        U_q != 0 and s_j > 0 wherever rho_j != 0, with the opacities the paths were traced
+        through; ``reusable`` says whether it is about as precise as paths traced for them.
+        The channels go on the thread pool, bounce by bounce (the weights of one bounce held)."""
         power = np.zeros_like(unshot)
         np.divide(mesh.patch_areas[:, None] * unshot, self.sampling[:, None] * len(self.sources), out=power,
                   where=self.sampling[:, None] > 0)
         onward = np.zeros_like(reflectance)
         np.divide(reflectance, (self.stops * self.survival)[:, None], out=onward, where=self.survival[:, None] > 0)
         bounces = self.bounce_starts
-        first = self.sources[self.came_from[: bounces[1]]] if len(bounces) > 1 else np.zeros(0, np.int32)
-        steps = [(start, end, self.came_from[start:end]) for start, end in zip(bounces[1:-1], bounces[2:])]
-        steps = [(start, end, before, self.landings[before]) for start, end, before in steps]
-        stopping = None if mesh.patch_opacity is None else self.stops[self.landings]
 
         def arrived(channel: int) -> np.ndarray:
             """(P,) the power of ``channel`` the particles brought to each patch."""
-            weight = np.empty(len(self.landings))
-            np.take(power[:, channel], first, out=weight[: len(first)])
             going_on = np.ascontiguousarray(onward[:, channel])
-            for start, end, before, left in steps:
-                np.multiply(weight[before], going_on[left], out=weight[start:end])
-            if stopping is not None:
-                weight /= stopping  # what each brings where it stops
-            return np.bincount(self.landings, weight, minlength=mesh.patch_count)
+            total = np.zeros(mesh.patch_count)
+            weight = None
+            for bounce, (start, end) in enumerate(zip(bounces[:-1], bounces[1:])):
+                before = self.came_from[start:end]  # particles, then the landings of the bounce before
+                if bounce == 0:
+                    weight = power[self.sources[before], channel]
+                else:
+                    weight = weight[before - bounces[bounce - 1]] * going_on[self.landings[before]]
+                landed = self.landings[start:end]
+                total += np.bincount(landed, weight / self.stops[landed], minlength=mesh.patch_count)
+            return total
 
         channels = []
         for channel in parallel.map_ordered(arrived, range(unshot.shape[1])):
@@ -263,11 +266,15 @@ class ParticlePaths:
         return unshot + reflectance * read_pools(mesh, np.stack(channels, axis=1), self.pool)
 
     def reusable(self, mesh: Discretization, unshot: np.ndarray, reflectance: np.ndarray) -> bool:
-        """Whether ``future`` of ``unshot`` (P, C) and ``reflectance`` (P, C) is unbiased and
-        about as precise as that of paths traced for them: no particle's weight grows where it
-        goes on (rho_j / opacity_j <= s_j), and each lit channel's share of the power leaving
-        the patches, a_q, is sampled with a variance sum_q a_q^2 / p_q at most REUSE_VARIANCE
-        times that of the chances paths traced for it would have."""
+        """Whether ``future`` of ``unshot`` (P, C) and ``reflectance`` (P, C) on ``mesh`` (the
+        patches and opacities the paths were traced on) is unbiased and about as precise as that
+        of paths traced for them: no particle's weight grows where it goes on (rho_j / opacity_j
+        <= s_j), and each lit channel's shares a_q of the power leaving the patches are sampled
+        with a second moment sum_q a_q^2 / p_q at most REUSE_MOMENT times that of the chances
+        paths traced for them would have."""
+        opacity = np.ones(mesh.patch_count) if mesh.patch_opacity is None else np.maximum(mesh.patch_opacity, 1e-12)
+        if len(self.sampling) != mesh.patch_count or not np.array_equal(opacity, self.stops):
+            return False
         if (reflectance > (self.stops * self.survival)[:, None] * (1 + 1e-12)).any():
             return False
         shares = _power_shares(mesh, unshot)
@@ -279,7 +286,7 @@ class ParticlePaths:
         lit = shares.sum(axis=0) > 0
         now = (shares[:, lit] ** 2 / np.where(self.sampling > 0, self.sampling, 1.0)[:, None]).sum(axis=0)
         best = (shares[:, lit] ** 2 / np.where(fresh > 0, fresh, 1.0)[:, None]).sum(axis=0)
-        return bool((now <= REUSE_VARIANCE * best).all())
+        return bool((now <= REUSE_MOMENT * best).all())
 
 
 def _power_shares(mesh: Discretization, unshot: np.ndarray) -> np.ndarray:
@@ -343,6 +350,7 @@ def trace_paths(mesh: Discretization, visibility: Visibility, unshot: np.ndarray
         blocks.append(part)
         report((done + 1) / len(starts))
     landings, came_from, bounce_starts = _joined(blocks, starts)
+    del blocks  # joined: not held twice
     return ParticlePaths(sources, landings, came_from, bounce_starts, sampling, survival, stops,
                          pools(mesh, np.bincount(landings, minlength=mesh.patch_count)))
 
@@ -350,7 +358,10 @@ def trace_paths(mesh: Discretization, visibility: Visibility, unshot: np.ndarray
 def _joined(blocks: list[list[tuple[np.ndarray, np.ndarray]]],
             starts: range) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The blocks' bounces (``trace_paths``) as one array of landings, bounce by bounce, with
-    where each came from numbered over all the particles and all the landings."""
+    where each came from numbered over all the particles and all the landings (int32, or int64
+    beyond 2**31 - 1 landings)."""
+    count = sum(len(patch) for bounces in blocks for patch, _ in bounces)
+    index_type = np.int32 if max(count, starts.stop) <= np.iinfo(np.int32).max else np.int64
     landings, came_from, bounce_starts = [], [], [0]
     offsets = np.array(starts, dtype=np.int64)  # where each block's bounce before starts
     for bounce in range(max((len(bounces) for bounces in blocks), default=0)):
@@ -359,19 +370,13 @@ def _joined(blocks: list[list[tuple[np.ndarray, np.ndarray]]],
             if bounce < len(bounces):
                 patch, source = bounces[bounce]
                 landings.append(patch)
-                came_from.append(source + offsets[index].astype(np.int32))
+                came_from.append(source.astype(index_type) + offsets[index])
                 lengths[index] = len(patch)
         offsets = bounce_starts[-1] + np.concatenate([[0], np.cumsum(lengths)[:-1]])
         bounce_starts.append(bounce_starts[-1] + int(lengths.sum()))
     if not landings:
-        return np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(1, np.int64)
+        return np.zeros(0, np.int32), np.zeros(0, index_type), np.zeros(1, np.int64)
     return np.concatenate(landings), np.concatenate(came_from), np.array(bounce_starts, np.int64)
-
-
-def pooled(mesh: Discretization, arrived: np.ndarray, hits: np.ndarray, min_hits: float = MIN_HITS) -> np.ndarray:
-    """(P, C) the power ``arrived`` (P, C) per unit area, each patch's read over its pool of
-    ``pools(mesh, hits, min_hits)``."""
-    return read_pools(mesh, arrived, pools(mesh, hits, min_hits))
 
 
 def read_pools(mesh: Discretization, arrived: np.ndarray, pool: np.ndarray) -> np.ndarray:
@@ -384,10 +389,11 @@ def read_pools(mesh: Discretization, arrived: np.ndarray, pool: np.ndarray) -> n
 
 def pools(mesh: Discretization, hits: np.ndarray, min_hits: float = MIN_HITS) -> np.ndarray:
     """(P,) labels 0, 1, ... of pools of patches that together hold ``min_hits`` of the particles'
-    ``hits`` (P,): a patch with that many alone, the others with those of their cell of a grid that face about the same way (normals rounded to a lattice of
-    step 1/2) and lie in the same layer along their normal (n . (c - cell centre) floored in
-    steps of spacing / LAYERS_PER_CELL), the spacing starting where the mean density gives min_hits per
-    cell (sqrt(min_hits sum A / sum hits)) and doubled while a pool is short of them.
+    ``hits`` (P,): a patch with that many alone, the others with those of their cell of a grid
+    that face about the same way (normals rounded to a lattice of step 1/2) and lie in the same
+    layer along their normal (n . (c - cell centre) floored in steps of spacing / LAYERS_PER_CELL),
+    the spacing starting where the mean density gives min_hits per cell (sqrt(min_hits sum A /
+    sum hits)) and doubled while a pool is short of them.
     Without pools a tiny patch that one particle reaches reads as a spike (power / tiny area) in
     every gather that meets it. A pool is unbiased over its members, so it must not mix light
     and dark: hence hits, not area (where light is dense pools stay small), and layers (a

@@ -4,7 +4,9 @@ else is baked afresh.
 The independent truths: a fresh ``bake`` of the changed scene (with no refinement levels it solves
 the same linear system on the same patches with the same rays, so the two agree to rounding, far
 below the tolerance of 1e-9 used here; with refinement levels the fresh bake may split other patches,
-and then they agree within the bake's own error estimate), and the linearity of the radiosity
+and with Monte Carlo after reflectances changed the re-solve reads the first bake's particles'
+paths with the new colours, another sample of the same answer: then they agree within the bake's
+own error estimate), the converged bake without Monte Carlo, and the linearity of the radiosity
 equation in its sources: B = (I - rho F)^-1 (E + rho D) is the sum of the answers for each source
 alone.
 """
@@ -84,10 +86,10 @@ def test_monte_carlo_re_solves_read_the_kept_paths_unless_surfaces_grow_brighter
     those a fresh bake traces, their power scaled: the same colours to rounding. Coloured walls,
     each channel as dark as the grey or darker: the paths read with the new reflectances. Against
     the converged bake of the same patches (no Monte Carlo), the re-solves' error over three seeds
-    is at most 1.25 times the fresh bakes' (the variance of the particles' power is at most
-    REUSE_VARIANCE = 1.25 times that of fresh ones, so the error sqrt(1.25) = 1.12 times, plus
-    noise; measured 0.90 times; reading them with each patch's mean reflectance instead gives 3.2
-    times) and within the estimate. A wall brighter than the grey: traced again, as a fresh bake
+    is at most 1.25 times the fresh bakes' (the second moment of the power leaving the patches
+    is at most REUSE_MOMENT = 1.25 times that of fresh particles: their noise sqrt(1.25) = 1.12
+    times, plus the spread of three seeds; measured 0.90 times, each seed 0.83 to 0.94; reading
+    the paths with each patch's mean reflectance instead gives 3.2 times) and within the estimate. A wall brighter than the grey: traced again, as a fresh bake
     traces."""
     scene = uniform(*box(), 0.8, 0.0)
     emission = np.zeros_like(scene.emission)
@@ -119,6 +121,32 @@ def test_monte_carlo_re_solves_read_the_kept_paths_unless_surfaces_grow_brighter
     again = session.bake(brighter)
     assert again.stats["resolved"] and again.stats["monte_carlo"]["traced"]
     assert_same_colours(again, bake(brighter, **knobs, seed=seed), NEW_SAMPLES)
+
+
+def test_a_monte_carlo_resolve_of_every_source_is_within_the_estimate_of_a_fresh_bake():
+    """Every kind of source changed at once (an emitter, a point light, a sun, the sky, the
+    environment) and the walls darker, Monte Carlo carrying what the emitter's shots and the
+    direct light left: the kept paths are read (nothing is traced; the second moment of the power
+    leaving is 0.96 to 1.10 times a fresh trace's) and the re-solve is within the fresh bake's
+    estimate of it; back to the first colours, it is the first bake to rounding (the same paths
+    read with the same colours). (With ``max_shots`` other patches than the emitters shoot, each
+    bake its own, and a patch shot to nothing in the first is lit in the next: traced again.)"""
+    scene = lit_by_everything()
+    knobs = KNOBS | {"monte_carlo_rays": 16}
+    session = BakeSession(**knobs)
+    first = session.bake(scene)
+    assert first.stats["monte_carlo"]["traced"]
+    reflectance = scene.reflectance.copy()
+    reflectance[2:4] = [0.1, 0.1, 0.55]  # the red wall turns blue, no brighter than its red
+    changed = recoloured(scene, reflectance=reflectance * 0.9, emission=scene.emission * [0.2, 1.0, 2.0],
+                         lights=(dataclasses.replace(scene.lights[0], power=np.array([5.0, 30.0, 5.0])),
+                                 dataclasses.replace(scene.lights[1], strength=np.array([0.5, 1.0, 4.0]))),
+                         sky=[1.0, 0.5, 0.1], environment=Environment(scene.environment.radiance * 3.0))
+    again, fresh = session.bake(changed), bake(changed, **knobs)
+    assert again.stats["resolved"] and not again.stats["monte_carlo"]["traced"]
+    assert relative_rms(again, first) > 0.1
+    assert relative_rms(again, fresh) <= fresh.stats["error_estimate"]["total"]
+    assert_same_colours(session.bake(scene), first)
 
 
 def relative_rms(result, truth) -> float:
