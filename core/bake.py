@@ -167,7 +167,8 @@ class BakeSession:
                                                                  timer="direct_light")
         node_direct = light.combined(node_factors)
         with stages.within(span["solve"]):
-            solution = solve(light, patch_factors, node_direct, settings, stages, kept.solver)
+            # a bake that keeps nothing lets the solver's form factors and particles go with it
+            solution = solve(light, patch_factors, node_direct, settings, stages, kept.solver if self.keep else {})
         kept.light, kept.patch_factors, kept.node_factors = solution.light, solution.patch_factors, node_factors
         kept.node_noise = node_noise
         kept.level_change = solution.level_change

@@ -159,12 +159,13 @@ class Surfaces:
         """``hit``'s patches and points for the front triangles ``front`` the rays met."""
         hit = front >= 0
         index = np.maximum(front, 0)
-        facing = (directions * self._normals[index]).sum(axis=1)
+        normals = self._normals[index]
+        facing = np.einsum("ij,ij->i", directions, normals)
         patch = np.where(facing < 0, front, self.mesh.back_of_front[index])
         patch[~hit] = -1
         # the ray's parameter at the hit triangle's plane (not parallel to it, since it met it)
         slope = np.where(np.abs(facing) > 1e-12, facing, 1e-12)
-        distance = (self._offsets[index] - (origins * self._normals[index]).sum(axis=1)) / slope
+        distance = (self._offsets[index] - np.einsum("ij,ij->i", origins, normals)) / slope
         points = origins + np.maximum(distance, 0.0)[:, None] * directions
         behind = np.flatnonzero(hit & (patch < 0) & self.visibility.coplanar_overlaps[index])
         if len(behind):
@@ -447,8 +448,8 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
         chosen = slice(start, start + POINTS_PER_BLOCK)
         count = len(points[chosen])
         uv = cells[None] + rng.random((count, rays, 2)) / side  # one uniform point in each stratum
+        directions = cosine_directions(normals[chosen], uv).reshape(-1, 3)
         normal = np.repeat(normals[chosen], rays, axis=0)
-        directions = cosine_directions(normal, uv.reshape(-1, 2))
         patch, _ = surfaces.hit(np.repeat(points[chosen], rays, axis=0), directions, normal, rng)
         return patch.astype(np.int32).reshape(count, rays)
 

@@ -116,12 +116,14 @@ def uniform_points(corners: np.ndarray, uv: np.ndarray) -> np.ndarray:
 
 
 def cosine_directions(normals: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """(n, 3) unit directions about unit ``normals`` (n, 3) from points ``uv`` (n, 2) of the
-    unit square, distributed as cos(theta) / pi when uv is uniform (Malley's method: a uniform
-    point of the unit disc, r = sqrt(u), phi = 2 pi v, lifted to the hemisphere)."""
-    radius = np.sqrt(uv[:, 0])
-    angle = 2 * np.pi * uv[:, 1]
-    tangent, bitangent = tangent_frames(normals)
-    lift = np.sqrt(np.maximum(1.0 - uv[:, 0], 0.0))
-    return ((radius * np.cos(angle))[:, None] * tangent + (radius * np.sin(angle))[:, None] * bitangent
-            + lift[:, None] * normals)
+    """(n, ..., 3) unit directions about unit ``normals`` (n, 3) from points ``uv`` (n, ..., 2) of
+    the unit square, distributed as cos(theta) / pi when uv is uniform (Malley's method: a uniform
+    point of the unit disc, r = sqrt(u), phi = 2 pi v, lifted to the hemisphere); each normal's
+    frame is built once for all its points."""
+    radius = np.sqrt(uv[..., 0])
+    angle = 2 * np.pi * uv[..., 1]
+    frame = (len(normals),) + (1,) * (uv.ndim - 2) + (3,)
+    tangent, bitangent = (axis.reshape(frame) for axis in tangent_frames(normals))
+    lift = np.sqrt(np.maximum(1.0 - uv[..., 0], 0.0))
+    return ((radius * np.cos(angle))[..., None] * tangent + (radius * np.sin(angle))[..., None] * bitangent
+            + lift[..., None] * normals.reshape(frame))

@@ -34,6 +34,17 @@ def test_cosine_directions_are_unit_and_cosine_distributed():
     assert abs(cosine.mean() - 2 / 3) < 1e-3 and abs((cosine**2).mean() - 0.5) < 1e-3
 
 
+def test_cosine_directions_of_many_points_per_normal_are_those_of_each_point_alone():
+    """Points (n, K, 2) about n normals: each normal's frame built once gives the directions its
+    K points get one by one (n K, 2) about the normal repeated, to the bit."""
+    rng = np.random.default_rng(3)
+    normals = rng.normal(size=(50, 3))
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    uv = rng.random((50, 16, 2))
+    np.testing.assert_array_equal(cosine_directions(normals, uv).reshape(-1, 3),
+                                  cosine_directions(np.repeat(normals, 16, axis=0), uv.reshape(-1, 2)))
+
+
 def test_uniform_points_lie_in_the_triangle_with_its_centroid_as_their_mean():
     corners = np.array([[[0.0, 0, 0], [2, 0, 0], [0, 1, 0]]] * 200_000)
     points = uniform_points(corners, np.random.default_rng(2).random((len(corners), 2)))
