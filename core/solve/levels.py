@@ -240,9 +240,33 @@ class _Levels:
         if engine.method == "hemicube":  # the estimate keeps the unshot light's bound
             return radiosity, stages.run("gathering at vertices", (0.5, 1.0), self._gather, radiosity,
                                          timer="gather"), None
-        if "gather_hits" not in self.kept:  # where the final gather's rays land: kept for a re-solve
+        light, standard_error = self._final_gather(mesh, visibility, future, stages)
+        return radiosity, state.radiosity[mesh.patch_count:] + light, standard_error
+
+    def _final_gather(self, mesh, visibility: Visibility, future: np.ndarray,
+                      stages: Stages) -> tuple[np.ndarray, np.ndarray]:
+        """The final gather of ``future`` (P, C) at the nodes (N, C), and its standard error: made
+        again with REGATHER_FACTOR times the rays at the ``montecarlo.noisy_nodes``, whose first
+        estimate the second replaces. Where the rays land, and the nodes gathered again, are kept
+        for a re-solve."""
+        rays, seed, opacity = self.settings.monte_carlo_rays, self.settings.seed, mesh.patch_opacity
+        if "gather_hits" not in self.kept:
             self.kept["gather_hits"] = stages.run(
-                "final gather", (0.5, 1.0), montecarlo.gather_hits, mesh, visibility, mesh.node_points,
-                mesh.node_normals, settings.monte_carlo_rays, settings.seed, timer="monte_carlo")
-        gathered = montecarlo.gathered(self.kept["gather_hits"], future, mesh.patch_opacity)
-        return radiosity, state.radiosity[mesh.patch_count:] + gathered.light, gathered.standard_error
+                "final gather", (0.5, 0.8), montecarlo.gather_hits, mesh, visibility, mesh.node_points,
+                mesh.node_normals, rays, seed, timer="monte_carlo")
+        first = montecarlo.gathered(self.kept["gather_hits"], future, opacity)
+        if "regathered" not in self.kept:
+            variance = first.standard_error ** 2  # each channel's share: the same for light scaled per channel
+            channel_total = variance.sum(axis=0)
+            shares = variance / np.where(channel_total > 0, channel_total, 1.0)
+            nodes = montecarlo.noisy_nodes(shares.sum(axis=1), mesh.corner_node, montecarlo.REGATHER_SHARE)
+            self.kept["regathered"] = nodes, stages.run(
+                "final gather again where it is noisy", (0.8, 1.0), lambda report: montecarlo.gather_hits(
+                    mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes],
+                    rays * montecarlo.REGATHER_FACTOR, seed, report, again=True), timer="monte_carlo")
+        nodes, hits = self.kept["regathered"]
+        second = montecarlo.gathered(hits, future, opacity)
+        light, standard_error = first.light.copy(), first.standard_error.copy()
+        light[nodes], standard_error[nodes] = second.light, second.standard_error
+        self.stats["monte_carlo"]["regathered_nodes"] = len(nodes)
+        return light, standard_error

@@ -57,6 +57,11 @@ LAYERS_PER_CELL = 4
 # error, however few its rays (docs/notes/experiments.md, "Where the breakfast room's error is").
 PARTICLES_PER_RAY = 1 / 16
 MIN_PARTICLES_PER_PATCH = 16
+# The final gather is made again with REGATHER_FACTOR times the rays at the nodes whose neighbours'
+# gathers hold REGATHER_SHARE of the variance (``noisy_nodes``): on Sponza most of the gain of 4 times
+# the rays everywhere for half its time (docs/notes/experiments.md, "An adaptive final gather").
+REGATHER_SHARE = 0.9
+REGATHER_FACTOR = 4
 # Paths traced for other colours are read again (``ParticlePaths.reusable``) while the second moment
 # of the power their particles carry is at most this times that of particles traced for the colours
 # (so the noise at most sqrt(1.25) = 1.12 times; tests/core/test_session.py measures it).
@@ -434,17 +439,17 @@ def gather(mesh: Discretization, visibility: Visibility, points: np.ndarray, nor
 
 
 def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
-                rays: int, seed: int = 0, report: Report = quiet) -> np.ndarray:
+                rays: int, seed: int = 0, report: Report = quiet, again: bool = False) -> np.ndarray:
     """(n, rays) int32: the patch each of ``gather``'s rays stops at (-1: none; through
     see-through surfaces by chance, ``Surfaces.hit``), to be read with any patch values
-    (``gathered``)."""
+    (``gathered``). ``again``: rays of their own for points gathered a second time (``regathered``)."""
     surfaces = Surfaces(mesh, visibility)
     side = check_gather_rays(rays)
     cells = np.stack(np.divmod(np.arange(rays), side), axis=1) / side  # (K, 2) corners of the strata
     starts = range(0, len(points), POINTS_PER_BLOCK)
 
     def block(start: int) -> np.ndarray:
-        rng = np.random.default_rng([seed, 2, start])
+        rng = np.random.default_rng([seed, 3 if again else 2, start])
         chosen = slice(start, start + POINTS_PER_BLOCK)
         count = len(points[chosen])
         uv = cells[None] + rng.random((count, rays, 2)) / side  # one uniform point in each stratum
@@ -458,6 +463,30 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
         parts.append(part)
         report(done / len(starts))
     return np.concatenate(parts) if parts else np.zeros((0, rays), np.int32)
+
+
+def noisy_nodes(variance: np.ndarray, corner_node: np.ndarray, share: float = REGATHER_SHARE) -> np.ndarray:
+    """(k,) sorted indices of the nodes whose final gather is made again: the fewest whose predicted
+    variances hold ``share`` of their sum, a node's prediction the mean ``variance`` (N,) of the
+    nodes it shares a triangle with (``corner_node`` (T, 3), -1 none), or its own if it has none.
+    Not its own otherwise: a node whose samples happened to agree (no ray met a rare bright patch)
+    would be left out, and the nodes left out would read dark on average; chosen by its
+    neighbours, a node's estimate, first or second, is unbiased."""
+    nodes = len(variance)
+    whole = corner_node[(corner_node >= 0).all(axis=1)].astype(np.int64)
+    node, other = whole.ravel(), np.roll(whole, 1, axis=1).ravel()  # each triangle's edges
+    pairs = np.unique(np.concatenate([node * nodes + other, other * nodes + node]))  # both ways, once
+    node, other = np.divmod(pairs, nodes)
+    node, other = node[node != other], other[node != other]
+    count = np.bincount(node, minlength=nodes)
+    summed = np.bincount(node, variance[other], minlength=nodes)
+    predicted = np.where(count > 0, summed / np.maximum(count, 1), variance)
+    total = predicted.sum()
+    if total <= 0 or share <= 0:
+        return np.zeros(0, dtype=np.int64)
+    order = np.argsort(-predicted, kind="stable")
+    held = np.cumsum(predicted[order]) / total
+    return np.sort(order[: min(np.searchsorted(held, share) + 1, len(order))])
 
 
 def gathered(hits: np.ndarray, values: np.ndarray, opacity: np.ndarray | None = None) -> Gathered:

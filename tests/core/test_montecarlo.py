@@ -12,8 +12,8 @@ from core import Scene, bake
 from core.transport.analytic import point_to_triangle
 from core.mesh.discretize import discretize
 from core.solve import montecarlo
-from core.solve.montecarlo import (MIN_HITS, cosine_directions, gather, pools, read_pools, trace, trace_paths,
-                                   uniform_points)
+from core.solve.montecarlo import (MIN_HITS, cosine_directions, gather, noisy_nodes, pools, read_pools, trace,
+                                   trace_paths, uniform_points)
 from core.rays.visibility import Visibility
 from tests.core.scenes import box, grid, lit_room, merge, quad, uniform
 
@@ -185,6 +185,51 @@ def test_paths_are_traced_again_for_brighter_surfaces_and_light_they_never_carri
     assert not paths.reusable(mesh, np.ones_like(dim_rest), mesh.patch_reflectance)
     assert not trace_paths(mesh, rays_of(mesh), quarter, mesh.patch_reflectance, 10_000).reusable(
         mesh, dim_rest, mesh.patch_reflectance)
+
+
+def test_nodes_are_gathered_again_by_their_neighbours_variance_not_their_own():
+    """Node 3 alone has a variance: its neighbours (1, 2, 4, 5) are predicted to have some, itself
+    none (its neighbours have none); 4 and 5 (one other neighbour each, both quiet: 10 / 2) hold
+    60 % of the predicted total, 1 and 2 (10 / 3 each) the rest. A node without neighbours (6,
+    on a triangle with a missing corner) is predicted by its own."""
+    corner_node = np.array([[0, 1, 2], [1, 2, 3], [3, 4, 5], [-1, 1, 6]])
+    variance = np.array([0.0, 0.0, 0.0, 10.0, 0.0, 0.0, 3.0])
+    np.testing.assert_array_equal(noisy_nodes(variance, corner_node, 0.5), [4, 5])
+    np.testing.assert_array_equal(noisy_nodes(variance, corner_node, 1.0), [1, 2, 4, 5, 6])
+    assert len(noisy_nodes(np.zeros(7), corner_node, 0.9)) == 0
+
+
+def gridded_box(cells: int = 8) -> Scene:
+    """A closed unit box of reflectance 0.8, each face split in cells x cells squares (642 nodes),
+    a strip of its ceiling emitting."""
+    faces = [grid([0, 0, 0], [1, 0, 0], [0, 1, 0], cells), grid([0, 0, 1], [0, 1, 0], [1, 0, 0], cells),
+             grid([0, 0, 0], [0, 1, 0], [0, 0, 1], cells), grid([1, 0, 0], [0, 0, 1], [0, 1, 0], cells),
+             grid([0, 0, 0], [0, 0, 1], [1, 0, 0], cells), grid([0, 1, 0], [1, 0, 0], [0, 0, 1], cells)]
+    vertices, triangles = merge(*faces)
+    emission = np.zeros((len(triangles), 3))
+    per_face = len(triangles) // 6
+    emission[per_face:per_face + per_face // 4] = [5.0, 4.0, 3.0]
+    return Scene(vertices, triangles, np.full((len(triangles), 3), 0.8), emission)
+
+
+def test_gathering_the_noisy_nodes_again_lowers_the_noise_and_adds_no_bias(monkeypatch):
+    """Four seeds of Monte Carlo with 16 gather rays in a closed box of reflectance 0.8, against
+    the converged bake of the same patches. Gathering again with 64 rays the nodes holding 90 % of
+    the predicted variance (here 466 of 642) lowers the error from 2.08 to 1.27 % (the test allows
+    0.75 of it). The mean of the four is off by half a single bake's error with and without (0.50
+    and 0.50 measured; pure noise gives 1 / sqrt(4)): a bias would show as more (allowed: 0.65)."""
+    scene = gridded_box()
+    knobs = dict(patch_size=0.2, rays_per_form_factor=4, tolerance=1e-6)
+    converged = bake(scene, **knobs).corner_colors
+    scale = np.sqrt((converged ** 2).mean())
+    errors, means = {}, {}
+    for share in (0.0, montecarlo.REGATHER_SHARE):
+        monkeypatch.setattr(montecarlo, "REGATHER_SHARE", share)
+        colours = [bake(scene, **knobs, monte_carlo_rays=16, seed=seed).corner_colors for seed in range(4)]
+        errors[share] = np.mean([np.sqrt(((c - converged) ** 2).mean()) / scale for c in colours])
+        means[share] = np.sqrt(((np.mean(colours, axis=0) - converged) ** 2).mean()) / scale
+    assert errors[montecarlo.REGATHER_SHARE] <= 0.75 * errors[0.0]
+    assert all(means[share] <= 0.65 * errors[share] for share in errors)
 
 
 def test_a_closed_box_of_uniform_value_gathers_exactly_that_value():
