@@ -442,7 +442,7 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
                 rays: int, seed: int = 0, report: Report = quiet, again: bool = False) -> np.ndarray:
     """(n, rays) int32: the patch each of ``gather``'s rays stops at (-1: none; through
     see-through surfaces by chance, ``Surfaces.hit``), to be read with any patch values
-    (``gathered``). ``again``: rays of their own for points gathered a second time (``regathered``)."""
+    (``gathered``). ``again``: rays of their own, for points gathered a second time (``noisy_nodes``)."""
     surfaces = Surfaces(mesh, visibility)
     side = check_gather_rays(rays)
     cells = np.stack(np.divmod(np.arange(rays), side), axis=1) / side  # (K, 2) corners of the strata
