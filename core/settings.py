@@ -112,8 +112,8 @@ KNOBS: tuple[Knob, ...] = (
          "has shot)"),
     Knob("monte_carlo_rays", int, None, "Progressive: when the shots stop, carry the light not yet shot, with all "
          "its bounces, by particles from the patches and a final gather of this many rays at each vertex, "
-         "four times as many where it is noisiest (0: off, the ambient term instead); the emitters always "
-         "shoot first", "rays", low=0, square=True,
+         "four times as many (up to 256) where it is noisiest (0: off, the ambient term instead); the "
+         "emitters always shoot first", "rays", low=0, square=True,
          none="auto", none_means="64 where shooting to the tolerance would take minutes (patches x (patches + "
          "vertices) from 50 million on), else 0"),
     Knob("link_tolerance", float, 0.01, "Hierarchical: a link is split while the light it carries is above this "

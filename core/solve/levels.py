@@ -246,9 +246,9 @@ class _Levels:
     def _final_gather(self, mesh, visibility: Visibility, future: np.ndarray,
                       stages: Stages) -> tuple[np.ndarray, np.ndarray]:
         """The final gather of ``future`` (P, C) at the nodes (N, C), and its standard error: made
-        again with REGATHER_FACTOR times the rays at the ``montecarlo.noisy_nodes``, whose first
-        estimate the second replaces. Where the rays land, and the nodes gathered again, are kept
-        for a re-solve."""
+        again with REGATHER_FACTOR times the rays (up to REGATHER_MAX_RAYS) at the
+        ``montecarlo.noisy_nodes``, whose first estimate the second replaces. Where the rays land,
+        and the nodes gathered again, are kept for a re-solve."""
         rays, seed, opacity = self.settings.monte_carlo_rays, self.settings.seed, mesh.patch_opacity
         if "gather_hits" not in self.kept:
             self.kept["gather_hits"] = stages.run(
@@ -259,7 +259,9 @@ class _Levels:
             variance = first.standard_error ** 2  # each channel's share: the same for light scaled per channel
             channel_total = variance.sum(axis=0)
             shares = variance / np.where(channel_total > 0, channel_total, 1.0)
-            nodes = montecarlo.noisy_nodes(shares.sum(axis=1), mesh.corner_node, montecarlo.REGATHER_SHARE)
+            again = rays * montecarlo.REGATHER_FACTOR <= montecarlo.REGATHER_MAX_RAYS
+            nodes = montecarlo.noisy_nodes(shares.sum(axis=1), mesh.corner_node,
+                                           montecarlo.REGATHER_SHARE if again else 0.0)
             self.kept["regathered"] = nodes, stages.run(
                 "final gather again where it is noisy", (0.8, 1.0), lambda report: montecarlo.gather_hits(
                     mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes],

@@ -58,10 +58,12 @@ LAYERS_PER_CELL = 4
 PARTICLES_PER_RAY = 1 / 16
 MIN_PARTICLES_PER_PATCH = 16
 # The final gather is made again with REGATHER_FACTOR times the rays at the nodes whose neighbours'
-# gathers hold REGATHER_SHARE of the variance (``noisy_nodes``): on Sponza most of the gain of 4 times
-# the rays everywhere for half its time (docs/notes/experiments.md, "An adaptive final gather").
+# gathers hold REGATHER_SHARE of the variance (``noisy_nodes``), while that is at most
+# REGATHER_MAX_RAYS rays: on Sponza, from 64 rays, most of the gain of 4 times the rays everywhere for
+# half its time; from 256, 0.1 % for 20 s more (docs/notes/experiments.md, "An adaptive final gather").
 REGATHER_SHARE = 0.9
 REGATHER_FACTOR = 4
+REGATHER_MAX_RAYS = 256
 # Paths traced for other colours are read again (``ParticlePaths.reusable``) while the second moment
 # of the power their particles carry is at most this times that of particles traced for the colours
 # (so the noise at most sqrt(1.25) = 1.12 times; tests/core/test_session.py measures it).

@@ -88,11 +88,10 @@ def test_monte_carlo_re_solves_read_the_kept_paths_unless_surfaces_grow_brighter
     the converged bake of the same patches (no Monte Carlo), the re-solves' error over three seeds
     is at most 1.25 times the fresh bakes' (the second moment of the power leaving the patches
     is at most REUSE_MOMENT = 1.25 times that of fresh particles: their noise sqrt(1.25) = 1.12
-    times, plus the spread of three seeds; measured 0.92 times, each seed 0.85 to 0.98; reading
+    times, plus the spread of three seeds; measured 0.90 times, each seed 0.83 to 0.94; reading
     the paths with each patch's mean reflectance instead gives 3.2 times) and within the estimate.
-    A wall brighter than the grey: traced again, within the estimate of a fresh bake (which
-    gathers again at the nodes its own first gather finds noisy, the re-solve at the first
-    bake's)."""
+    A wall brighter than the grey: traced again, as a fresh bake traces. (With 1,024 rays the
+    final gather is not made again: REGATHER_MAX_RAYS.)"""
     scene = uniform(*box(), 0.8, 0.0)
     emission = np.zeros_like(scene.emission)
     emission[:2] = [5.0, 4.0, 3.0]
@@ -120,9 +119,10 @@ def test_monte_carlo_re_solves_read_the_kept_paths_unless_surfaces_grow_brighter
     brighter = scene.reflectance.copy()
     brighter[6:8] = 0.9
     brighter = recoloured(scene, reflectance=brighter)
-    again, fresh = session.bake(brighter), bake(brighter, **knobs, seed=seed)
+    again = session.bake(brighter)
     assert again.stats["resolved"] and again.stats["monte_carlo"]["traced"]
-    assert relative_rms(again, fresh) <= fresh.stats["error_estimate"]["total"]
+    assert again.stats["monte_carlo"]["regathered_nodes"] == 0
+    assert_same_colours(again, bake(brighter, **knobs, seed=seed), NEW_SAMPLES)
 
 
 def test_a_monte_carlo_resolve_of_every_source_is_within_the_estimate_of_a_fresh_bake():
