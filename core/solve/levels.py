@@ -259,13 +259,14 @@ class _Levels:
             variance = first.standard_error ** 2  # each channel's share: the same for light scaled per channel
             channel_total = variance.sum(axis=0)
             shares = variance / np.where(channel_total > 0, channel_total, 1.0)
-            again = rays * montecarlo.REGATHER_FACTOR <= montecarlo.REGATHER_MAX_RAYS
-            nodes = montecarlo.noisy_nodes(shares.sum(axis=1), mesh.corner_node,
-                                           montecarlo.REGATHER_SHARE if again else 0.0)
-            self.kept["regathered"] = nodes, stages.run(
+            more = rays * montecarlo.REGATHER_FACTOR
+            nodes = montecarlo.noisy_nodes(shares.sum(axis=1), mesh.corner_node, montecarlo.REGATHER_SHARE) \
+                if more <= montecarlo.REGATHER_MAX_RAYS else np.zeros(0, dtype=np.int64)
+            hits = np.zeros((0, more), np.int32) if len(nodes) == 0 else stages.run(
                 "final gather again where it is noisy", (0.8, 1.0), lambda report: montecarlo.gather_hits(
-                    mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes],
-                    rays * montecarlo.REGATHER_FACTOR, seed, report, again=True), timer="monte_carlo")
+                    mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes], more, seed, report,
+                    again=True), timer="monte_carlo")
+            self.kept["regathered"] = nodes, hits
         nodes, hits = self.kept["regathered"]
         second = montecarlo.gathered(hits, future, opacity)
         light, standard_error = first.light.copy(), first.standard_error.copy()
