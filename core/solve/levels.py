@@ -14,7 +14,7 @@ from ..reconstruct import estimate
 from ..rays.visibility import Visibility
 from ..transport.arriving import ArrivingLight
 from ..util.progress import Stages
-from . import hierarchical, iterative, montecarlo
+from . import gather, hierarchical, iterative, montecarlo
 from .progressive import ColumnCache, ShootingState, progressive
 
 # A level that will be refined stops at this times the tolerance (no looser than 0.1).
@@ -30,7 +30,10 @@ class Solution:
     light : the ArrivingLight over those patches (its ``mesh`` and ``engine``).
     radiosity : (P, C) of the patches.
     node_lighting : (N, C) the light G arriving at the receiver nodes.
-    noise : (N, C) the standard error of ``node_lighting`` where Monte Carlo carried light, or None.
+    noise : (N, C) the standard error of ``node_lighting`` where a final gather read what Monte
+        Carlo carried, or None.
+    near_change : (N, C) what that gather's near rays changed in ``node_lighting`` by reading
+        where they landed (``gather.GatherHits.read``), or None.
     level_change : the discretisation estimate from the last refinement level (``estimate``), or None.
     patch_factors : (P, S, 3) each source's direct light over the patches per unit of its intensity.
     stats : the solver's statistics (shots or iterations, ...), with "refinements" and "monte_carlo".
@@ -45,6 +48,7 @@ class Solution:
     patch_factors: np.ndarray
     stats: dict = field(default_factory=dict)
     extra_bytes: int = 0
+    near_change: np.ndarray | None = None
 
 
 def solve(light: ArrivingLight, patch_factors: np.ndarray, node_direct: np.ndarray, settings,
@@ -87,12 +91,13 @@ def solve(light: ArrivingLight, patch_factors: np.ndarray, node_direct: np.ndarr
         colors = light.mesh.node_radiosity(node_lighting)
         change = None if previous_colors is None else estimate.level_change(light.mesh, colors, previous_colors)
         previous_colors = colors
-    noise = None
+    gathered = None
     if monte_carlo and not solver.stats["converged"]:
         with stages.within((SHOTS_SHARE, 1.0)):
-            radiosity, node_lighting, noise = solver.monte_carlo(stages)
-    return Solution(solver.light, radiosity, node_lighting, noise, change, patch_factors,
-                    solver.stats | {"refinements": refinements}, solver.extra_bytes)
+            radiosity, node_lighting, gathered = solver.monte_carlo(stages, light.sky_parts(patch_factors))
+    return Solution(solver.light, radiosity, node_lighting, None if gathered is None else gathered.standard_error,
+                    change, patch_factors, solver.stats | {"refinements": refinements}, solver.extra_bytes,
+                    None if gathered is None else gathered.near_change)
 
 
 class _Levels:
@@ -106,6 +111,7 @@ class _Levels:
         self.channels, self.node_direct = light.channels, node_direct
         self.state: ShootingState | None = None
         self.radiosity: np.ndarray | None = None  # the explicit solvers' last answer
+        self.sources: np.ndarray | None = None  # the patches' own light (P, C) in the last solve
         self.stats: dict = {}
         self.extra_bytes = 0
 
@@ -143,6 +149,7 @@ class _Levels:
     def solve(self, sources: np.ndarray, tolerance: float, stages: Stages) -> tuple[np.ndarray, np.ndarray]:
         """Patch radiosity (P, C) and the light G arriving at the nodes (N, C), for the patches'
         own light ``sources`` (P, C)."""
+        self.sources = sources
         if self.settings.solver != "progressive":
             radiosity = stages.run("form factors", (0.0, 0.35), self._matrix, timer="form_factors")
             radiosity = stages.run("solving", (0.35, 0.7), self._iterate, radiosity, sources, tolerance, timer="solve")
@@ -220,11 +227,14 @@ class _Levels:
         mesh = self.light.mesh
         return self.node_direct + self.light.gathered(mesh.node_points, mesh.node_normals, radiosity, report)
 
-    def monte_carlo(self, stages: Stages):
-        """Patch radiosity (P, C), the light arriving at the nodes (N, C) and its standard error
-        (N, C; None with the hemicube): the shots so far, plus what the light left unshot adds with
-        all its bounces, X = U + rho F X, by particle tracing on the patches and a final gather at
-        the nodes (``montecarlo``; with the hemicube, the nodes gather the result by hemicube)."""
+    def monte_carlo(self, stages: Stages, sky: tuple[np.ndarray, np.ndarray] | None):
+        """Patch radiosity (P, C), the light arriving at the nodes (N, C) and the final gather's
+        ``gather.Gathered`` (None with the hemicube): the shots so far, plus what the light left
+        unshot adds with all its bounces, X = U + rho F X, by particle tracing on the patches and a
+        final gather at the nodes (``montecarlo``, ``gather``; with the hemicube, the nodes gather
+        the result by hemicube). ``sky``: the uniform sky's light on the patches (P, C) and at an
+        open point (C,) (``ArrivingLight.sky_parts``), which the gather's rays of their own read
+        where they leave the scene, or None."""
         engine, settings, state = self.light.engine, self.settings, self.state
         mesh = engine.mesh
         visibility = engine.visibility
@@ -234,42 +244,51 @@ class _Levels:
                                     opacity=mesh.front_opacity)
         particles = montecarlo.particle_count(mesh.patch_count, settings.monte_carlo_rays)
         future, traced = self._particles(mesh, visibility, particles, stages)
-        radiosity = state.radiosity[: mesh.patch_count] - state.unshot + future
+        shot = state.radiosity[: mesh.patch_count] - state.unshot
+        radiosity = shot + future
         self.stats["monte_carlo"] = {"particles": particles, "gather_rays": settings.monte_carlo_rays,
                                      "traced": traced}
         if engine.method == "hemicube":  # the estimate keeps the unshot light's bound
             return radiosity, stages.run("gathering at vertices", (0.5, 1.0), self._gather, radiosity,
                                          timer="gather"), None
-        light, standard_error = self._final_gather(mesh, visibility, future, stages)
-        return radiosity, state.radiosity[mesh.patch_count:] + light, standard_error
+        reflectance = mesh.patch_reflectance[:, : self.channels]
+        own = self.sources - shot if sky is None else self.sources - shot - reflectance * sky[0]
+        read = {"far": future, "opacity": mesh.patch_opacity, "own": own, "reflectance": reflectance,
+                "radiosity": radiosity, "emission": mesh.patch_emission[:, : self.channels],
+                "sky": None if sky is None else sky[1]}
+        gathered = self._final_gather(mesh, visibility, read, stages)
+        return radiosity, state.radiosity[mesh.patch_count:] + gathered.light, gathered
 
-    def _final_gather(self, mesh, visibility: Visibility, future: np.ndarray,
-                      stages: Stages) -> tuple[np.ndarray, np.ndarray]:
-        """The final gather of ``future`` (P, C) at the nodes (N, C), and its standard error: made
-        again with REGATHER_FACTOR times the rays (up to REGATHER_MAX_RAYS) at the
-        ``montecarlo.noisy_nodes``, whose first estimate the second replaces. Where the rays land,
-        and the nodes gathered again, are kept for a re-solve."""
-        rays, seed, opacity = self.settings.monte_carlo_rays, self.settings.seed, mesh.patch_opacity
+    def _final_gather(self, mesh, visibility: Visibility, read: dict, stages: Stages) -> gather.Gathered:
+        """The final gather at the nodes (N, C) of what the shots left, ``read`` the arguments of
+        ``gather.GatherHits.read`` (far: X, what the patches add beyond their shots; near: their
+        radiosity where the rays landed, less their shots), with its standard error: made again
+        with REGATHER_FACTOR times the rays (up to REGATHER_MAX_RAYS) at the ``gather.noisy_nodes``,
+        whose first estimate the second replaces. Where the rays land, and the nodes gathered
+        again, are kept for a re-solve."""
+        rays, seed = self.settings.monte_carlo_rays, self.settings.seed
         if "gather_hits" not in self.kept:
             self.kept["gather_hits"] = stages.run(
-                "final gather", (0.5, 0.8), montecarlo.gather_hits, mesh, visibility, mesh.node_points,
+                "final gather", (0.5, 0.8), gather.gather_hits, mesh, visibility, mesh.node_points,
                 mesh.node_normals, rays, seed, timer="monte_carlo")
-        first = montecarlo.gathered(self.kept["gather_hits"], future, opacity)
+        first = self.kept["gather_hits"].read(**read)
         if "regathered" not in self.kept:
             variance = first.standard_error ** 2  # each channel's share: the same for light scaled per channel
             channel_total = variance.sum(axis=0)
             shares = variance / np.where(channel_total > 0, channel_total, 1.0)
-            more = rays * montecarlo.REGATHER_FACTOR
-            nodes = montecarlo.noisy_nodes(shares.sum(axis=1), mesh.corner_node, montecarlo.REGATHER_SHARE) \
-                if more <= montecarlo.REGATHER_MAX_RAYS else np.zeros(0, dtype=np.int64)
-            hits = np.zeros((0, more), np.int32) if len(nodes) == 0 else stages.run(
-                "final gather again where it is noisy", (0.8, 1.0), lambda report: montecarlo.gather_hits(
+            more = rays * gather.REGATHER_FACTOR
+            nodes = gather.noisy_nodes(shares.sum(axis=1), mesh.corner_node, gather.REGATHER_SHARE) \
+                if more <= gather.REGATHER_MAX_RAYS else np.zeros(0, dtype=np.int64)
+            hits = None if len(nodes) == 0 else stages.run(
+                "final gather again where it is noisy", (0.8, 1.0), lambda report: gather.gather_hits(
                     mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes], more, seed, report,
                     again=True), timer="monte_carlo")
             self.kept["regathered"] = nodes, hits
         nodes, hits = self.kept["regathered"]
-        second = montecarlo.gathered(hits, future, opacity)
-        light, standard_error = first.light.copy(), first.standard_error.copy()
-        light[nodes], standard_error[nodes] = second.light, second.standard_error
         self.stats["monte_carlo"]["regathered_nodes"] = len(nodes)
-        return light, standard_error
+        if hits is None:
+            return first
+        second = hits.read(**read)
+        light, standard_error, change = first.light.copy(), first.standard_error.copy(), first.near_change.copy()
+        light[nodes], standard_error[nodes], change[nodes] = second.light, second.standard_error, second.near_change
+        return gather.Gathered(light, standard_error, change)

@@ -18,10 +18,7 @@ The paths (``trace_paths``) are kept apart from the colours that weight them
 (``ParticlePaths.future``), so that a re-solve with other reflectances or other unshot light reads
 them again instead of tracing (importance sampling of the paths: ``ParticlePaths.reusable``).
 
-``gather`` then reads X where colours are evaluated (a final gather, Lischinski, Tampieri and
-Greenberg 1993): G(x) = sum_j F(x, j) X_j = E[X at the first hit of a cosine-distributed ray
-from x], estimated from K stratified directions. A point so averages K patches' values, and their
-noise with them. It returns the standard error of each estimate from the spread of its samples.
+The final gather (``gather``) then reads X where colours are evaluated.
 
 Rays go through ``Visibility.nearest``, whose triangles must be the mesh's front patches (index
 p is patch p); a ray meeting a front patch from behind lands on its back patch
@@ -32,7 +29,6 @@ one-sided faces), or nowhere.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -43,9 +39,8 @@ from ..util.geometry import barycentric, cosine_directions, uniform_points
 from ..util.progress import Report, quiet
 from ..util.spatial import ranks, runs
 
-# Particles or gather points per block of work on the thread pool.
+# Particles per block of work on the thread pool.
 PARTICLES_PER_BLOCK = 1 << 15
-POINTS_PER_BLOCK = 1 << 11
 # Particles a pool of ``pools`` must receive, and its layers' depth (LAYERS_PER_CELL per spacing):
 # more hits per pool blur more and were no better on the benchmark scenes (docs/notes/experiments.md).
 MIN_HITS = 8
@@ -57,65 +52,15 @@ LAYERS_PER_CELL = 4
 # error, however few its rays (docs/notes/experiments.md, "Where the breakfast room's error is").
 PARTICLES_PER_RAY = 1 / 16
 MIN_PARTICLES_PER_PATCH = 16
-# The final gather is made again with REGATHER_FACTOR times the rays at the nodes whose neighbours'
-# gathers hold REGATHER_SHARE of the variance (``noisy_nodes``), while that is at most
-# REGATHER_MAX_RAYS rays: on Sponza, from 64 rays, most of the gain of 4 times the rays everywhere for
-# half its time; from 256, 0.1 % for 20 s more (docs/notes/experiments.md, "An adaptive final gather").
-REGATHER_SHARE = 0.9
-REGATHER_FACTOR = 4
-REGATHER_MAX_RAYS = 256
 # Paths traced for other colours are read again (``ParticlePaths.reusable``) while the second moment
 # of the power their particles carry is at most this times that of particles traced for the colours
 # (so the noise at most sqrt(1.25) = 1.12 times; tests/core/test_session.py measures it).
 REUSE_MOMENT = 1.25
 
-@dataclass(frozen=True)
-class Gathered:
-    """light (n, C): the estimate of G = sum_j F(x, j) X_j at each point; standard_error (n, C):
-    its standard error, from the spread of the point's samples."""
-
-    light: np.ndarray
-    standard_error: np.ndarray
-
-    @staticmethod
-    def of(samples: np.ndarray) -> Gathered:
-        """The mean of ``samples`` (n, k, C) over their k, with its standard error (their spread
-        over sqrt(k); with one sample, its own size)."""
-        count = samples.shape[1]
-        mean = samples.sum(axis=1) / count
-        if count == 1:
-            return Gathered(mean, np.abs(samples[:, 0]))
-        deviation = samples - mean[:, None]  # the spread by einsum: twice as fast as np.std
-        return Gathered(mean, np.sqrt(np.einsum("nkc,nkc->nc", deviation, deviation) / (count - 1) / count))
-
-    @staticmethod
-    def on_threads(block: Callable[[int], Gathered], starts: range, channels: int, report: Report) -> Gathered:
-        """``block(start)`` for each of ``starts`` on the thread pool, joined in order, each reported."""
-        parts = []
-        for part in parallel.map_ordered(block, starts):
-            parts.append(part)
-            report(len(parts) / len(starts))
-        return Gathered.joined(parts, channels)
-
-    @staticmethod
-    def joined(parts: list[Gathered], channels: int) -> Gathered:
-        """The estimates of ``parts`` one after another."""
-        if not parts:
-            return Gathered(np.zeros((0, channels)), np.zeros((0, channels)))
-        return Gathered(np.concatenate([part.light for part in parts]),
-                        np.concatenate([part.standard_error for part in parts]))
-
-
-def check_gather_rays(count: int) -> int:
-    """The strata per side for ``count`` final-gather rays, which must be a perfect square."""
-    side = int(round(np.sqrt(max(count, 0))))
-    if count < 1 or side * side != count:
-        raise ValueError(f"Monte Carlo rays must be a perfect square (1, 4, 9, 16, ...), got {count}")
-    return side
-
 
 class Surfaces:
-    """Where the rays of ``trace`` and ``gather`` land: the patch hit, on the side hit."""
+    """Where the rays of ``trace`` and the final gather (``gather``) land: the patch hit, on the
+    side hit."""
 
     def __init__(self, mesh: Discretization, visibility: Visibility) -> None:
         front = mesh.front_patch_count
@@ -138,11 +83,24 @@ class Surfaces:
         With ``rng``, a ray goes on through a see-through surface (either side) with the chance
         1 - its opacity, up to MAX_LAYERS times: it so stops at patch j with the chance opacity_j
         of all that reaches it, and what it reads or brings there counts 1 / opacity_j
-        (``gathered``, ``trace``)."""
+        (``gather``, ``trace``)."""
+        patch, points, _ = self._traced(origins, directions, lift, rng)
+        return patch, points
+
+    def hit_or_sky(self, origins: np.ndarray, directions: np.ndarray, lift: np.ndarray,
+                   rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """``hit``, the patch -2 where the ray met no surface at all (it leaves the scene, to the sky)."""
+        patch, points, front = self._traced(origins, directions, lift, rng)
+        patch[front < 0] = -2
+        return patch, points
+
+    def _traced(self, origins: np.ndarray, directions: np.ndarray, lift: np.ndarray,
+                rng: np.random.Generator | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``hit``'s patches and points, and the front triangle each ray last met (-1: none)."""
         front = self.visibility.nearest(origins, directions, lift)
         patch, points = self._landing(origins, directions, front)
         if rng is None or not self.visibility.see_through:
-            return patch, points
+            return patch, points, front
         deciding = np.flatnonzero(front >= 0)  # rays at a surface, to stop there or go on
         for _ in range(MAX_LAYERS):
             crossing = deciding[rng.random(len(deciding)) >= self.visibility.opacity[front[deciding]]]
@@ -152,14 +110,14 @@ class Surfaces:
             front[crossing] = self.visibility.nearest(points[crossing], going, going)
             patch[crossing], points[crossing] = self._landing(points[crossing], going, front[crossing])
             deciding = crossing[front[crossing] >= 0]
-        return patch, points
+        return patch, points, front
 
     def opaque_hit(self, origins: np.ndarray, directions: np.ndarray,
                    lift: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``hit`` without ``rng`` (every surface stops the ray), and (n,) bool: whether each ray
         met no surface at all (it leaves the scene, to the sky)."""
-        front = self.visibility.nearest(origins, directions, lift)
-        return *self._landing(origins, directions, front), front < 0
+        patch, points, front = self._traced(origins, directions, lift, None)
+        return patch, points, front < 0
 
     def _landing(self, origins: np.ndarray, directions: np.ndarray,
                  front: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -430,72 +388,3 @@ def pools(mesh: Discretization, hits: np.ndarray, min_hits: float = MIN_HITS) ->
         short = short[np.bincount(group, hits[short])[group] < min_hits]
         spacing *= 2
     return np.unique(pool, return_inverse=True)[1].reshape(-1)
-
-
-def gather(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
-           values: np.ndarray, rays: int, seed: int = 0, report: Report = quiet) -> Gathered:
-    """The final gather of patch ``values`` (P, C) at ``points`` (n, 3) facing unit ``normals``
-    (n, 3) with ``rays`` (a perfect square) cosine-distributed directions each, from one uniform
-    point in each of the rays congruent squares of the unit square (jittered strata)."""
-    return gathered(gather_hits(mesh, visibility, points, normals, rays, seed, report), values, mesh.patch_opacity)
-
-
-def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
-                rays: int, seed: int = 0, report: Report = quiet, again: bool = False) -> np.ndarray:
-    """(n, rays) int32: the patch each of ``gather``'s rays stops at (-1: none; through
-    see-through surfaces by chance, ``Surfaces.hit``), to be read with any patch values
-    (``gathered``). ``again``: rays of their own, for points gathered a second time (``noisy_nodes``)."""
-    surfaces = Surfaces(mesh, visibility)
-    side = check_gather_rays(rays)
-    cells = np.stack(np.divmod(np.arange(rays), side), axis=1) / side  # (K, 2) corners of the strata
-    starts = range(0, len(points), POINTS_PER_BLOCK)
-
-    def block(start: int) -> np.ndarray:
-        rng = np.random.default_rng([seed, 3 if again else 2, start])
-        chosen = slice(start, start + POINTS_PER_BLOCK)
-        count = len(points[chosen])
-        uv = cells[None] + rng.random((count, rays, 2)) / side  # one uniform point in each stratum
-        directions = cosine_directions(normals[chosen], uv).reshape(-1, 3)
-        normal = np.repeat(normals[chosen], rays, axis=0)
-        patch, _ = surfaces.hit(np.repeat(points[chosen], rays, axis=0), directions, normal, rng)
-        return patch.astype(np.int32).reshape(count, rays)
-
-    parts = []
-    for done, part in enumerate(parallel.map_ordered(block, starts), 1):
-        parts.append(part)
-        report(done / len(starts))
-    return np.concatenate(parts) if parts else np.zeros((0, rays), np.int32)
-
-
-def noisy_nodes(variance: np.ndarray, corner_node: np.ndarray, share: float = REGATHER_SHARE) -> np.ndarray:
-    """(k,) sorted indices of the nodes whose final gather is made again: the fewest whose predicted
-    variances hold ``share`` of their sum, a node's prediction the mean ``variance`` (N,) of the
-    nodes it shares a triangle with (``corner_node`` (T, 3), -1 none), or its own if it has none.
-    Not its own otherwise: a node whose samples happened to agree (no ray met a rare bright patch)
-    would be left out, and the nodes left out would read dark on average; chosen by its
-    neighbours, a node's estimate, first or second, is unbiased."""
-    nodes = len(variance)
-    whole = corner_node[(corner_node >= 0).all(axis=1)].astype(np.int64)
-    node, other = whole.ravel(), np.roll(whole, 1, axis=1).ravel()  # each triangle's edges
-    pairs = np.unique(np.concatenate([node * nodes + other, other * nodes + node]))  # both ways, once
-    node, other = np.divmod(pairs, nodes)
-    node, other = node[node != other], other[node != other]
-    count = np.bincount(node, minlength=nodes)
-    summed = np.bincount(node, variance[other], minlength=nodes)
-    predicted = np.where(count > 0, summed / np.maximum(count, 1), variance)
-    total = predicted.sum()
-    if total <= 0 or share <= 0:
-        return np.zeros(0, dtype=np.int64)
-    order = np.argsort(-predicted, kind="stable")
-    held = np.cumsum(predicted[order]) / total
-    return np.sort(order[: min(np.searchsorted(held, share) + 1, len(order))])
-
-
-def gathered(hits: np.ndarray, values: np.ndarray, opacity: np.ndarray | None = None) -> Gathered:
-    """``gather``'s estimate at points whose rays stopped at the patches ``hits`` (n, rays) (-1:
-    none), of patch ``values`` (P, C), each over the patch's ``opacity`` (P,) (None: all 1)."""
-    if opacity is not None:
-        values = np.divide(values, opacity[:, None], out=np.zeros_like(values), where=opacity[:, None] > 0)
-    padded = np.concatenate([values, np.zeros((1, values.shape[1]))])  # row -1: nothing hit
-    return Gathered.joined([Gathered.of(padded[hits[start:start + POINTS_PER_BLOCK]])
-                            for start in range(0, len(hits), POINTS_PER_BLOCK)], values.shape[1])

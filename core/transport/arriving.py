@@ -53,6 +53,14 @@ class ArrivingLight:
         """(m, C) the light of the sources' ``factors`` (m, S, 3) at this light's intensities."""
         return self.direct.combine(factors, self.intensities)[:, : self.channels]
 
+    def sky_parts(self, factors: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """The uniform sky's part (m, C) of the light of ``factors`` (m, S, 3) (``combined``), and
+        the light G (C,) it gives a point open to all of it; None without a sky."""
+        if not self.direct.sky.any():
+            return None
+        index = len(self.direct.lights)  # the sky comes after the lights
+        return (factors[:, index] * self.intensities[index])[:, : self.channels], self.intensities[index, : self.channels]
+
     def sharp(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """From the emitting patches' first shot and the lights, without the sky: the direct
         light whose shadows start at a contact (``touching``)."""

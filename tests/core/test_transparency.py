@@ -16,7 +16,7 @@ import pytest
 from core import Scene, SunLight, bake
 from core.mesh.discretize import discretize
 from core.rays.visibility import Visibility
-from core.solve.montecarlo import gather
+from core.solve.gather import gather
 from core.transport.analytic import point_to_triangle
 
 from scenes import box, grid, merge, quad

@@ -1,0 +1,277 @@
+"""The final gather (Lischinski, Tampieri and Greenberg 1993): the light arriving where colours are
+evaluated, read from the patches' radiosity after the shots and Monte Carlo (``montecarlo``).
+
+G(x) = sum_j F(x, j) V_j = E[V at the first hit of a cosine-distributed ray from x], estimated
+from K stratified directions (``gather_hits``, ``GatherHits.read``): a point so averages K
+patches' values, and their noise with them, and the spread of its samples gives the standard
+error of its estimate.
+
+A patch's value is its mean. Seen from close by, the mean is not what a point sees: from a vertex
+on a concave edge half the view is the patch across the edge, darker in the corner than its mean,
+or brighter beside an emitter, and a small patch's mean is pooled with its neighbours'
+(``montecarlo.pools``). So a ray that meets patch j nearer than NEAR_HIT times j's longest edge
+reads the radiosity where it landed, at y, by SECOND_RAYS rays of its own from y (the secondary
+final gather of photon mapping: Jensen, "Global illumination using photon maps", 1996):
+
+    B_j(y) = E_j + rho_j (L_j + sum_q F(y, q) B_q),
+
+L_j the patch's mean direct light from the lights and the sky (which no ray meets), the light of
+the emitting surfaces E_q sampled at y as well (next-event estimation, weighted against the rays
+that meet them: ``emitters``): the emitters' light and the shade of the corner are read where the
+ray landed. This is what the near field (``reconstruct.nearfield``) does with linear
+interpolants, which it replaces where Monte Carlo carries the light (docs/notes/experiments.md,
+"A second gather where the rays land close").
+
+The hits are geometry only: a re-solve reads them again with other colours.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import numpy as np
+
+from ..mesh.discretize import Discretization
+from ..rays.visibility import Visibility
+from ..util import parallel
+from ..util.geometry import cosine_directions, longest_edges
+from ..util.progress import Report, quiet
+from .emitters import Emitters
+from .montecarlo import Surfaces
+
+POINTS_PER_BLOCK = 1 << 11  # points per block of work on the thread pool
+# A ray that lands nearer than NEAR_HIT times its patch's longest edge is read by SECOND_RAYS rays
+# from where it landed: on Sponza against path tracing, 3.9 % at 64 rays instead of 5.4 % with the
+# near field, in less time; NEAR_HIT 1 gave 4.1 % in 9 % more time, SECOND_RAYS 9 3.7 % in 40 % more
+# (docs/notes/experiments.md, "A second gather where the rays land close").
+NEAR_HIT = 0.5
+SECOND_RAYS = 4
+# The final gather is made again with REGATHER_FACTOR times the rays at the nodes whose neighbours'
+# gathers hold REGATHER_SHARE of the variance (``noisy_nodes``), while that is at most
+# REGATHER_MAX_RAYS rays: on Sponza, from 64 rays, most of the gain of 4 times the rays everywhere for
+# half its time; from 256, 0.1 % for 20 s more (docs/notes/experiments.md, "An adaptive final gather").
+REGATHER_SHARE = 0.9
+REGATHER_FACTOR = 4
+REGATHER_MAX_RAYS = 256
+
+
+@dataclass(frozen=True)
+class Gathered:
+    """light (n, C): the estimate of G = sum_j F(x, j) X_j at each point; standard_error (n, C):
+    its standard error, from the spread of the point's samples; near_change (n, C) or None: what
+    reading the near rays' patches where they landed changed in ``light`` (``GatherHits.read``)."""
+
+    light: np.ndarray
+    standard_error: np.ndarray
+    near_change: np.ndarray | None = None
+
+    @staticmethod
+    def of(samples: np.ndarray) -> Gathered:
+        """The mean of ``samples`` (n, k, C) over their k, with its standard error (their spread
+        over sqrt(k); with one sample, its own size)."""
+        count = samples.shape[1]
+        mean = samples.sum(axis=1) / count
+        if count == 1:
+            return Gathered(mean, np.abs(samples[:, 0]))
+        deviation = samples - mean[:, None]  # the spread by einsum: twice as fast as np.std
+        return Gathered(mean, np.sqrt(np.einsum("nkc,nkc->nc", deviation, deviation) / (count - 1) / count))
+
+    @staticmethod
+    def on_threads(block: Callable[[int], Gathered], starts: range, channels: int, report: Report) -> Gathered:
+        """``block(start)`` for each of ``starts`` on the thread pool, joined in order, each reported."""
+        parts = []
+        for part in parallel.map_ordered(block, starts):
+            parts.append(part)
+            report(len(parts) / len(starts))
+        return Gathered.joined(parts, channels)
+
+    @staticmethod
+    def joined(parts: list[Gathered], channels: int) -> Gathered:
+        """The estimates of ``parts`` one after another."""
+        if not parts:
+            return Gathered(np.zeros((0, channels)), np.zeros((0, channels)))
+        changed = all(part.near_change is not None for part in parts)
+        return Gathered(np.concatenate([part.light for part in parts]),
+                        np.concatenate([part.standard_error for part in parts]),
+                        np.concatenate([part.near_change for part in parts]) if changed else None)
+
+
+def check_gather_rays(count: int) -> int:
+    """The strata per side for ``count`` final-gather rays, which must be a perfect square."""
+    side = int(round(np.sqrt(max(count, 0))))
+    if count < 1 or side * side != count:
+        raise ValueError(f"Monte Carlo rays must be a perfect square (1, 4, 9, 16, ...), got {count}")
+    return side
+
+
+@dataclass(frozen=True)
+class GatherHits:
+    """Where the rays of a final gather landed (``gather_hits``), to be read with any colours.
+
+    patches : (n, K) int32 the patch each ray of each point stopped at (-1: none).
+    near : (m,) int64 the rays read by rays of their own (flat indices into ``patches``, sorted).
+    second : (m, k) int32 the patches where those rays' own rays stopped (-1: none, -2: none, they
+        left the scene).
+    second_share : (m, k) float32 the share of those patches' emission that the rays count
+        (``emitters.Emitters.met_share``; 1 where a patch emits nothing).
+    lamp : (m,) int32 an emitting patch sampled from where each near ray landed (-1: none), and
+    lamp_weight : (m,) its weight (``emitters.Emitters.sample``).
+    """
+
+    patches: np.ndarray
+    near: np.ndarray
+    second: np.ndarray
+    second_share: np.ndarray
+    lamp: np.ndarray
+    lamp_weight: np.ndarray
+
+    def read(self, far: np.ndarray, opacity: np.ndarray | None = None, own: np.ndarray | None = None,
+             reflectance: np.ndarray | None = None, radiosity: np.ndarray | None = None,
+             emission: np.ndarray | None = None, sky: np.ndarray | None = None) -> Gathered:
+        """The estimate at each point of the light arriving from the patches, with its standard
+        error. A ray that stopped at j far from the point reads ``far`` (P, C); a ``near`` one
+        reads where it landed
+
+            own_j + rho_j (mean_k (B_q - (1 - s_k) E_q) + w E_lamp),
+
+        ``own`` (P, C) what j gives beyond the light it reflects from the surfaces and the sky,
+        ``reflectance`` rho (P, C), ``radiosity`` B (P, C) and ``emission`` E (P, C) of the patches
+        q its own rays met, each counting the share s_k of E, or ``sky`` (C,) (None: none) where
+        they left the scene, and w E of the emitter sampled; what that changes at each point is its
+        ``near_change``. What a ray reads at a patch counts 1 / ``opacity`` (P,) there (None: all
+        1): it stopped there with that chance (``Surfaces.hit``)."""
+        far = _padded(far, opacity)
+        if len(self.near):
+            own, scale = _padded(own, opacity), _padded(reflectance, opacity)
+            open_sky = np.zeros(far.shape[1]) if sky is None else sky
+            second = _padded(radiosity, opacity, open_sky)
+            emitted, lamps = _padded(emission, opacity, 0 * open_sky), _padded(emission, None)
+        rays = self.patches.shape[1]
+        parts = []
+        for start in range(0, len(self.patches), POINTS_PER_BLOCK):
+            hits = self.patches[start:start + POINTS_PER_BLOCK]
+            samples = far[hits]
+            change = np.zeros((len(hits), samples.shape[2]))
+            first, last = np.searchsorted(self.near, [start * rays, (start + len(hits)) * rays])
+            if last > first:
+                ray = self.near[first:last] - start * rays
+                patch = hits.reshape(-1)[ray]
+                met = self.second[first:last]
+                unshared = (1 - self.second_share[first:last])[..., None] * emitted[met]
+                arriving = (second[met] - unshared).mean(axis=1) \
+                    + self.lamp_weight[first:last, None] * lamps[self.lamp[first:last]]
+                reading = own[patch] + scale[patch] * arriving
+                point = ray // rays
+                for channel in range(samples.shape[2]):
+                    change[:, channel] = np.bincount(point, reading[:, channel] - far[patch, channel],
+                                                     minlength=len(hits)) / rays
+                samples.reshape(-1, samples.shape[2])[ray] = reading
+            parts.append(replace(Gathered.of(samples), near_change=change))
+        return Gathered.joined(parts, far.shape[1])
+
+
+def _padded(values: np.ndarray, opacity: np.ndarray | None, outside: np.ndarray | None = None) -> np.ndarray:
+    """``values`` (P, C) over ``opacity`` (P,) (None: 1), read at index -1 (no patch) as 0 and,
+    with ``outside`` (C,), at -2 (out of the scene) as that: (P + 1, C) or (P + 2, C)."""
+    if opacity is not None:
+        values = np.divide(values, opacity[:, None], out=np.zeros_like(values), where=opacity[:, None] > 0)
+    rows = [values] + ([] if outside is None else [outside[None]]) + [np.zeros((1, values.shape[1]))]
+    return np.concatenate(rows)
+
+
+def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
+                rays: int, seed: int = 0, report: Report = quiet, again: bool = False,
+                near: bool = True) -> GatherHits:
+    """Where ``rays`` (a perfect square) cosine-distributed rays from each of ``points`` (n, 3)
+    facing unit ``normals`` (n, 3) stop (from one uniform point in each of the rays congruent
+    squares of the unit square: jittered strata; through see-through surfaces by chance,
+    ``Surfaces.hit``), and with ``near``, from where each that landed nearer than NEAR_HIT times
+    its patch's longest edge did, where SECOND_RAYS rays of its own stop and an emitting patch
+    sampled (``emitters``). ``again``: rays of their own, for points gathered a second time
+    (``noisy_nodes``)."""
+    surfaces, emitters = Surfaces(mesh, visibility), Emitters(mesh)
+    second_rays = SECOND_RAYS if near else 0
+    cells, side = _strata(rays)
+    second_cells, second_side = _strata(second_rays) if second_rays else (None, 1)
+    reach = NEAR_HIT * longest_edges(mesh.patch_corners)
+    starts = range(0, len(points), POINTS_PER_BLOCK)
+
+    def block(start: int) -> GatherHits:
+        rng = np.random.default_rng([seed, 3 if again else 2, start])
+        chosen = slice(start, start + POINTS_PER_BLOCK)
+        count = len(points[chosen])
+        directions = cosine_directions(normals[chosen], cells[None] + rng.random((count, rays, 2)) / side)
+        origins = np.repeat(points[chosen], rays, axis=0)
+        patch, landed = surfaces.hit(origins, directions.reshape(-1, 3), np.repeat(normals[chosen], rays, axis=0),
+                                     rng)
+        close = np.zeros(0, np.int64)
+        if second_cells is not None:
+            distance = np.linalg.norm(landed - origins, axis=1)
+            close = np.flatnonzero((patch >= 0) & (distance < reach[np.maximum(patch, 0)]))
+        at, facing = landed[close], mesh.patch_normals[patch[close]]  # the side landed on faces back along the ray
+        uv = second_cells[None] + rng.random((len(close), second_rays, 2)) / second_side if len(close) else None
+        lamp, lamp_weight = emitters.sample(visibility, at, facing, rng, second_rays)
+        second, share = np.zeros((len(close), second_rays), np.int32), np.ones((len(close), second_rays))
+        if len(close):
+            starts_again, normals_again = np.repeat(at, second_rays, axis=0), np.repeat(facing, second_rays, axis=0)
+            second, met = surfaces.hit_or_sky(starts_again, cosine_directions(facing, uv).reshape(-1, 3),
+                                              normals_again, rng)
+            share = emitters.met_share(starts_again, normals_again, second, met, second_rays)
+        return GatherHits(patch.astype(np.int32).reshape(count, rays), close + start * rays,
+                          second.astype(np.int32).reshape(len(close), second_rays),
+                          share.astype(np.float32).reshape(len(close), second_rays), lamp.astype(np.int32),
+                          lamp_weight)
+
+    parts = [part for part in _reported(parallel.map_ordered(block, starts), len(starts), report)]
+    if not parts:
+        parts = [GatherHits(np.zeros((0, rays), np.int32), np.zeros(0, np.int64), np.zeros((0, second_rays), np.int32),
+                            np.zeros((0, second_rays), np.float32), np.zeros(0, np.int32), np.zeros(0))]
+    return GatherHits(*(np.concatenate([getattr(part, name) for part in parts]) for name in
+                        ("patches", "near", "second", "second_share", "lamp", "lamp_weight")))
+
+
+def _reported(parts, count: int, report: Report):
+    """``parts`` one by one, each ``report``-ed as a share of ``count``."""
+    for done, part in enumerate(parts, 1):
+        report(done / count)
+        yield part
+
+
+def _strata(count: int) -> tuple[np.ndarray, int]:
+    """(K, 2) the lower corners of the K = ``count`` (a perfect square) congruent squares of the
+    unit square that jittered samples are drawn in, and the squares per side."""
+    side = check_gather_rays(count)
+    return np.stack(np.divmod(np.arange(count), side), axis=1) / side, side
+
+
+def gather(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
+           values: np.ndarray, rays: int, seed: int = 0, report: Report = quiet) -> Gathered:
+    """The final gather of patch ``values`` (P, C) at ``points`` (n, 3) facing unit ``normals``
+    (n, 3), each patch read as its value (no second rays): sum_j F(x, j) values_j."""
+    return gather_hits(mesh, visibility, points, normals, rays, seed, report, near=False).read(
+        values, mesh.patch_opacity)
+
+
+def noisy_nodes(variance: np.ndarray, corner_node: np.ndarray, share: float = REGATHER_SHARE) -> np.ndarray:
+    """(k,) sorted indices of the nodes whose final gather is made again: the fewest whose predicted
+    variances hold ``share`` of their sum, a node's prediction the mean ``variance`` (N,) of the
+    nodes it shares a triangle with (``corner_node`` (T, 3), -1 none), or its own if it has none.
+    Not its own otherwise: a node whose samples happened to agree (no ray met a rare bright patch)
+    would be left out, and the nodes left out would read dark on average; chosen by its
+    neighbours, a node's estimate, first or second, is unbiased."""
+    nodes = len(variance)
+    whole = corner_node[(corner_node >= 0).all(axis=1)].astype(np.int64)
+    node, other = whole.ravel(), np.roll(whole, 1, axis=1).ravel()  # each triangle's edges
+    pairs = np.unique(np.concatenate([node * nodes + other, other * nodes + node]))  # both ways, once
+    node, other = np.divmod(pairs, nodes)
+    node, other = node[node != other], other[node != other]
+    count = np.bincount(node, minlength=nodes)
+    summed = np.bincount(node, variance[other], minlength=nodes)
+    predicted = np.where(count > 0, summed / np.maximum(count, 1), variance)
+    total = predicted.sum()
+    if total <= 0 or share <= 0:
+        return np.zeros(0, dtype=np.int64)
+    order = np.argsort(-predicted, kind="stable")
+    held = np.cumsum(predicted[order]) / total
+    return np.sort(order[: min(np.searchsorted(held, share) + 1, len(order))])
