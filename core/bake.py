@@ -197,7 +197,7 @@ class BakeSession:
         the error estimate and the statistics."""
         light, radiosity, node_lighting = solution.light, solution.radiosity, solution.node_lighting
         mesh, near_errors, near_stats = light.mesh, None, None
-        if settings.near_field and solution.noise is None:  # a final gather reads the near patches itself
+        if settings.near_field and solution.near_change is None:  # else a final gather read the near patches
             node_lighting, near_errors, near_stats = stages.run(
                 "near field", span["near field"], near_field_correction, scene, light, radiosity, node_lighting,
                 kept.near_field, settings.column_cache if self.keep else 0, timer="near_field")
@@ -208,7 +208,7 @@ class BakeSession:
         corners = stages.run("per-corner colours", span["corners"], lambda _report: per_corner(
             scene, mesh, radiosity, node_lighting, None if panels is None else panels.triangle_panel),
             timer="reconstruct")
-        if solution.near_change is not None:  # what the gather's near rays changed, as the near field's would
+        if solution.near_change is not None:  # what reading the near patches where the rays landed changed
             near_errors = mesh.node_reflectance[:, : light.channels] * np.abs(solution.near_change)
         error = estimate.of_bake(mesh, mesh.node_radiosity(node_lighting), radiosity, light.engine.receiving_points,
                                  self.method, solution.stats, solution.level_change, solution.noise, near_errors,

@@ -8,7 +8,9 @@ sqrt(mean |c - c*|^2) / mean |c*| (the NRMSE the benchmarks measure, docs/result
 
 Discretisation, by the first of three measures that applies:
 - with ray casting and the near field, how far the patches next to each node are from linear,
-  rho_n sum_{q near n} F(n, q) |mean corner colour - B_q| (``nearfield.reading_error``);
+  rho_n sum_{q near n} F(n, q) |mean corner colour - B_q| (``nearfield.reading_error``); where
+  Monte Carlo's final gather read the patches next to the nodes where its rays landed, what that
+  changed at each node (``gather.Gathered.near_change``) stands in for it;
 - after adaptive refinement, LEVEL_FACTOR times the change of the node colours in the last
   level: if each level shrinks the error by a factor r, what is left after it is the sum of the
   changes still to come, r / (1 - r) times the last one, at most 2 for r <= 2/3 (the reflective
@@ -107,7 +109,8 @@ def of_bake(mesh: Discretization, colors: np.ndarray, radiosity: np.ndarray, rec
     colours are ``colors`` (N, C) over patches of ``radiosity`` (P, C), as the module docstring
     says: the solver's part from ``solve_stats`` (or the Monte Carlo ``noise`` (N, C) of the
     nodes' lighting), the discretisation's from the near field's ``near_errors`` (N, C; ray
-    casting), the last refinement level's ``level_change``, or the corner-patch gap; and the
+    casting; or what the final gather's near rays changed), the last refinement level's
+    ``level_change``, or the corner-patch gap; and the
     sampling's of the sky at the nodes, from its standard error ``direct_noise`` (N, C) there
     (``DirectLighting.sampled_factors_at``)."""
     change = level_change

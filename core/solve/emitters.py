@@ -88,7 +88,7 @@ class Emitters:
 
 def _solid_angle_densities(area_density: np.ndarray, squared: np.ndarray, cos_here: np.ndarray,
                            cos_there: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The densities per solid angle, both times the distance r, of reaching an emitter's point
-    by sampling the emitters (p r^2 / cos_there, p per unit area) and by a cosine-distributed
-    ray (cos_here / pi): the power heuristic's two weights (cosines times r, as computed)."""
+    """The densities per solid angle of reaching an emitter's point by sampling the emitters
+    (p r^2 / cos_there, p per unit area) and by a cosine-distributed ray (cos_here / pi), from
+    ``squared`` r^2 and the cosines times r (as computed): the power heuristic's two weights."""
     return area_density * squared**1.5 / cos_there, cos_here / (np.pi * np.sqrt(squared))

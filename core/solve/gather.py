@@ -15,12 +15,14 @@ final gather of photon mapping: Jensen, "Global illumination using photon maps",
 
     B_j(y) = E_j + rho_j (L_j + sum_q F(y, q) B_q),
 
-L_j the patch's mean direct light from the lights and the sky (which no ray meets), the light of
-the emitting surfaces E_q sampled at y as well (next-event estimation, weighted against the rays
-that meet them: ``emitters``): the emitters' light and the shade of the corner are read where the
-ray landed. This is what the near field (``reconstruct.nearfield``) does with linear
-interpolants, which it replaces where Monte Carlo carries the light (docs/notes/experiments.md,
-"A second gather where the rays land close").
+L_j the patch's mean direct light from the lights and an environment, which no ray meets (so a
+scene that has them reads its near patches by the near field instead: ``gather_hits``'s
+``near``); the light of the emitting surfaces E_q is sampled at y as well (next-event estimation,
+weighted against the rays that meet them: ``emitters``), and rays that leave the scene read the
+uniform sky. The emitters' and the sky's light and the shade of the corner are so read where the
+ray landed, which the near field (``reconstruct.nearfield``) does with linear interpolants of the
+patch's corner colours (a cut piece of a triangle has none): this replaces it where Monte Carlo
+carries the light (docs/notes/experiments.md, "A second gather where the rays land close").
 
 The hits are geometry only: a re-solve reads them again with other colours.
 """
@@ -42,9 +44,8 @@ from .montecarlo import Surfaces
 
 POINTS_PER_BLOCK = 1 << 11  # points per block of work on the thread pool
 # A ray that lands nearer than NEAR_HIT times its patch's longest edge is read by SECOND_RAYS rays
-# from where it landed: on Sponza against path tracing, 3.9 % at 64 rays instead of 5.4 % with the
-# near field, in less time; NEAR_HIT 1 gave 4.1 % in 9 % more time, SECOND_RAYS 9 3.7 % in 40 % more
-# (docs/notes/experiments.md, "A second gather where the rays land close").
+# from where it landed (the choice measured on Sponza: docs/notes/experiments.md, "A second gather
+# where the rays land close").
 NEAR_HIT = 0.5
 SECOND_RAYS = 4
 # The final gather is made again with REGATHER_FACTOR times the rays at the nodes whose neighbours'
@@ -58,9 +59,10 @@ REGATHER_MAX_RAYS = 256
 
 @dataclass(frozen=True)
 class Gathered:
-    """light (n, C): the estimate of G = sum_j F(x, j) X_j at each point; standard_error (n, C):
-    its standard error, from the spread of the point's samples; near_change (n, C) or None: what
-    reading the near rays' patches where they landed changed in ``light`` (``GatherHits.read``)."""
+    """light (n, C): the estimate of G = sum_j F(x, j) V_j at each point of the patches' values V
+    (``GatherHits.read``); standard_error (n, C): its standard error, from the spread of the
+    point's samples; near_change (n, C) or None: what reading the near rays' patches where they
+    landed changed in ``light``, sum over them of (that reading - V_j) / K (None: not read so)."""
 
     light: np.ndarray
     standard_error: np.ndarray
@@ -110,13 +112,15 @@ class GatherHits:
     """Where the rays of a final gather landed (``gather_hits``), to be read with any colours.
 
     patches : (n, K) int32 the patch each ray of each point stopped at (-1: none).
-    near : (m,) int64 the rays read by rays of their own (flat indices into ``patches``, sorted).
-    second : (m, k) int32 the patches where those rays' own rays stopped (-1: none, -2: none, they
-        left the scene).
+    near : (m,) int32 or int64 the rays read by rays of their own (flat indices into ``patches``,
+        sorted).
+    second : (m, k) int32 the patches where those rays' own rays stopped (-1: the back of a
+        one-sided face or nothing, read as 0; -2: they left the scene, read as the sky); k = 0
+        where no ray is read so (``gather_hits``'s ``near``).
     second_share : (m, k) float32 the share of those patches' emission that the rays count
         (``emitters.Emitters.met_share``; 1 where a patch emits nothing).
     lamp : (m,) int32 an emitting patch sampled from where each near ray landed (-1: none), and
-    lamp_weight : (m,) its weight (``emitters.Emitters.sample``).
+    lamp_weight : (m,) float32 its weight (``emitters.Emitters.sample``).
     """
 
     patches: np.ndarray
@@ -141,6 +145,8 @@ class GatherHits:
         they left the scene, and w E of the emitter sampled; what that changes at each point is its
         ``near_change``. What a ray reads at a patch counts 1 / ``opacity`` (P,) there (None: all
         1): it stopped there with that chance (``Surfaces.hit``)."""
+        if len(self.near) and any(value is None for value in (own, reflectance, radiosity, emission)):
+            raise ValueError("rays read where they landed need own, reflectance, radiosity and emission")
         far = _padded(far, opacity)
         if len(self.near):
             own, scale = _padded(own, opacity), _padded(reflectance, opacity)
@@ -158,7 +164,7 @@ class GatherHits:
                 ray = self.near[first:last] - start * rays
                 patch = hits.reshape(-1)[ray]
                 met = self.second[first:last]
-                unshared = (1 - self.second_share[first:last])[..., None] * emitted[met]
+                unshared = (1 - self.second_share[first:last].astype(np.float64))[..., None] * emitted[met]
                 arriving = (second[met] - unshared).mean(axis=1) \
                     + self.lamp_weight[first:last, None] * lamps[self.lamp[first:last]]
                 reading = own[patch] + scale[patch] * arriving
@@ -167,7 +173,7 @@ class GatherHits:
                     change[:, channel] = np.bincount(point, reading[:, channel] - far[patch, channel],
                                                      minlength=len(hits)) / rays
                 samples.reshape(-1, samples.shape[2])[ray] = reading
-            parts.append(replace(Gathered.of(samples), near_change=change))
+            parts.append(replace(Gathered.of(samples), near_change=change if self.second.shape[1] else None))
         return Gathered.joined(parts, far.shape[1])
 
 
@@ -195,6 +201,7 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
     cells, side = _strata(rays)
     second_cells, second_side = _strata(second_rays) if second_rays else (None, 1)
     reach = NEAR_HIT * longest_edges(mesh.patch_corners)
+    index_type = np.int32 if len(points) * rays <= np.iinfo(np.int32).max else np.int64
     starts = range(0, len(points), POINTS_PER_BLOCK)
 
     def block(start: int) -> GatherHits:
@@ -218,15 +225,16 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
             second, met = surfaces.hit_or_sky(starts_again, cosine_directions(facing, uv).reshape(-1, 3),
                                               normals_again, rng)
             share = emitters.met_share(starts_again, normals_again, second, met, second_rays)
-        return GatherHits(patch.astype(np.int32).reshape(count, rays), close + start * rays,
+        return GatherHits(patch.astype(np.int32).reshape(count, rays), (close + start * rays).astype(index_type),
                           second.astype(np.int32).reshape(len(close), second_rays),
                           share.astype(np.float32).reshape(len(close), second_rays), lamp.astype(np.int32),
-                          lamp_weight)
+                          lamp_weight.astype(np.float32))
 
     parts = [part for part in _reported(parallel.map_ordered(block, starts), len(starts), report)]
     if not parts:
-        parts = [GatherHits(np.zeros((0, rays), np.int32), np.zeros(0, np.int64), np.zeros((0, second_rays), np.int32),
-                            np.zeros((0, second_rays), np.float32), np.zeros(0, np.int32), np.zeros(0))]
+        parts = [GatherHits(np.zeros((0, rays), np.int32), np.zeros(0, index_type),
+                            np.zeros((0, second_rays), np.int32), np.zeros((0, second_rays), np.float32),
+                            np.zeros(0, np.int32), np.zeros(0, np.float32))]
     return GatherHits(*(np.concatenate([getattr(part, name) for part in parts]) for name in
                         ("patches", "near", "second", "second_share", "lamp", "lamp_weight")))
 

@@ -33,7 +33,8 @@ class Solution:
     noise : (N, C) the standard error of ``node_lighting`` where a final gather read what Monte
         Carlo carried, or None.
     near_change : (N, C) what that gather's near rays changed in ``node_lighting`` by reading
-        where they landed (``gather.GatherHits.read``), or None.
+        where they landed (``gather.GatherHits.read``), or None where no gather read the patches
+        next to the nodes (the near field then does: core/bake.py).
     level_change : the discretisation estimate from the last refinement level (``estimate``), or None.
     patch_factors : (P, S, 3) each source's direct light over the patches per unit of its intensity.
     stats : the solver's statistics (shots or iterations, ...), with "refinements" and "monte_carlo".
@@ -267,10 +268,15 @@ class _Levels:
         whose first estimate the second replaces. Where the rays land, and the nodes gathered
         again, are kept for a re-solve."""
         rays, seed = self.settings.monte_carlo_rays, self.settings.seed
+        # the lights and an environment are read as the patches' means where the rays land close,
+        # and their detail there is the near field's (core/bake.py), which reads those patches then
+        direct = self.light.direct
+        near = self.settings.near_field and not direct.lights and direct.environment is None
         if "gather_hits" not in self.kept:
             self.kept["gather_hits"] = stages.run(
-                "final gather", (0.5, 0.8), gather.gather_hits, mesh, visibility, mesh.node_points,
-                mesh.node_normals, rays, seed, timer="monte_carlo")
+                "final gather", (0.5, 0.8), lambda report: gather.gather_hits(
+                    mesh, visibility, mesh.node_points, mesh.node_normals, rays, seed, report, near=near),
+                timer="monte_carlo")
         first = self.kept["gather_hits"].read(**read)
         if "regathered" not in self.kept:
             variance = first.standard_error ** 2  # each channel's share: the same for light scaled per channel
@@ -282,13 +288,17 @@ class _Levels:
             hits = None if len(nodes) == 0 else stages.run(
                 "final gather again where it is noisy", (0.8, 1.0), lambda report: gather.gather_hits(
                     mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes], more, seed, report,
-                    again=True), timer="monte_carlo")
+                    again=True, near=near), timer="monte_carlo")
             self.kept["regathered"] = nodes, hits
         nodes, hits = self.kept["regathered"]
         self.stats["monte_carlo"]["regathered_nodes"] = len(nodes)
         if hits is None:
             return first
         second = hits.read(**read)
-        light, standard_error, change = first.light.copy(), first.standard_error.copy(), first.near_change.copy()
-        light[nodes], standard_error[nodes], change[nodes] = second.light, second.standard_error, second.near_change
+        light, standard_error = first.light.copy(), first.standard_error.copy()
+        light[nodes], standard_error[nodes] = second.light, second.standard_error
+        change = None
+        if first.near_change is not None:
+            change = first.near_change.copy()
+            change[nodes] = second.near_change
         return gather.Gathered(light, standard_error, change)

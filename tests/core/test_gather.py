@@ -11,6 +11,7 @@ import pytest
 
 from core import Scene, bake
 from core.mesh.discretize import discretize
+from core.solve import gather as final_gather
 from core.solve.gather import gather, noisy_nodes
 from core.transport.analytic import point_to_triangle
 from tests.core.scenes import box, grid, merge, quad, uniform
@@ -167,3 +168,39 @@ def test_a_card_of_two_one_sided_faces_back_to_back_is_read_on_the_face_each_ray
     normals = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]])
     found = gather(mesh, rays_of(mesh), points, normals, values, 256).light[:, 0]
     assert 0.96 <= found[0] <= 1.0 and 0.96 * 2 <= found[1] <= 2.0, found
+
+
+def test_rays_read_where_they_landed_are_read_ray_by_ray_across_blocks(monkeypatch):
+    """``GatherHits.read`` against its formula applied ray by ray: 7 points of 4 rays in blocks of
+    2 points, the near rays' own rays meeting patches, the back of a face (-1) or nothing (-2),
+    one patch see-through."""
+    monkeypatch.setattr(final_gather, "POINTS_PER_BLOCK", 2)
+    rng = np.random.default_rng(4)
+    patches_count, channels, points, rays = 5, 3, 7, 4
+    far, own, radiosity, emission = (rng.random((patches_count, channels)) for _ in range(4))
+    reflectance = 0.8 * rng.random((patches_count, channels))
+    opacity = np.array([1.0, 0.5, 1.0, 1.0, 1.0])
+    sky = np.array([0.3, 0.2, 0.1])
+    patches = rng.integers(-1, patches_count, (points, rays)).astype(np.int32)
+    near = np.sort(rng.choice(np.flatnonzero(patches.ravel() >= 0), 9, replace=False))
+    second = rng.integers(-2, patches_count, (len(near), 4)).astype(np.int32)
+    share = rng.random(second.shape).astype(np.float32)
+    lamp = rng.integers(-1, patches_count, len(near)).astype(np.int32)
+    weight = rng.random(len(near)).astype(np.float32)
+    found = final_gather.GatherHits(patches, near, second, share, lamp, weight).read(
+        far, opacity, own, reflectance, radiosity, emission, sky)
+
+    def stopped(values, patch):  # what a ray that stopped at ``patch`` reads of ``values``
+        return np.zeros(channels) if patch == -1 else sky if patch == -2 else values[patch] / opacity[patch]
+
+    samples = np.array([[stopped(far, patch) for patch in row] for row in patches])
+    for k, ray in enumerate(near):
+        j = patches.ravel()[ray]
+        arriving = np.mean([stopped(radiosity, q) - (1 - float(s)) * (0 * sky if q == -2 else stopped(emission, q))
+                            for q, s in zip(second[k], share[k])], axis=0)
+        arriving = arriving + float(weight[k]) * (emission[lamp[k]] if lamp[k] >= 0 else 0)
+        reading = (own[j] + reflectance[j] * arriving) / opacity[j]
+        samples[ray // rays, ray % rays] = reading
+    np.testing.assert_allclose(found.light, samples.mean(axis=1), rtol=1e-12)
+    np.testing.assert_allclose(found.near_change, (samples - np.array(
+        [[stopped(far, patch) for patch in row] for row in patches])).sum(axis=1) / rays, rtol=1e-12, atol=1e-15)
