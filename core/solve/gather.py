@@ -154,8 +154,8 @@ class GatherHits:
             second = _padded(radiosity, opacity, open_sky)
             emitted, lamps = _padded(emission, opacity, 0 * open_sky), _padded(emission, None)
         rays = self.patches.shape[1]
-        parts = []
-        for start in range(0, len(self.patches), POINTS_PER_BLOCK):
+
+        def block(start: int) -> Gathered:
             hits = self.patches[start:start + POINTS_PER_BLOCK]
             samples = far[hits]
             change = np.zeros((len(hits), samples.shape[2]))
@@ -173,7 +173,9 @@ class GatherHits:
                     change[:, channel] = np.bincount(point, reading[:, channel] - far[patch, channel],
                                                      minlength=len(hits)) / rays
                 samples.reshape(-1, samples.shape[2])[ray] = reading
-            parts.append(replace(Gathered.of(samples), near_change=change if self.second.shape[1] else None))
+            return replace(Gathered.of(samples), near_change=change if self.second.shape[1] else None)
+
+        parts = list(parallel.map_ordered(block, range(0, len(self.patches), POINTS_PER_BLOCK)))
         return Gathered.joined(parts, far.shape[1])
 
 
