@@ -15,14 +15,15 @@ final gather of photon mapping: Jensen, "Global illumination using photon maps",
 
     B_j(y) = E_j + rho_j (L_j + sum_q F(y, q) B_q),
 
-L_j the patch's mean direct light from the lights and an environment, which no ray meets (so a
-scene that has them reads its near patches by the near field instead: ``gather_hits``'s
-``near``); the light of the emitting surfaces E_q is sampled at y as well (next-event estimation,
-weighted against the rays that meet them: ``emitters``), and rays that leave the scene read the
-uniform sky. The emitters' and the sky's light and the shade of the corner are so read where the
-ray landed, which the near field (``reconstruct.nearfield``) does with linear interpolants of the
-patch's corner colours (a cut piece of a triangle has none): this replaces it where Monte Carlo
-carries the light (docs/notes/experiments.md, "A second gather where the rays land close").
+L_j the direct light of the lights at y (``DirectLighting``, up to MAX_NEAR_LIGHTS lights; a scene
+with more, or an environment, which no ray meets, reads its near patches by the near field
+instead: ``gather_hits``'s ``near``); the light of the emitting surfaces E_q is sampled at y as
+well (next-event estimation, weighted against the rays that meet them: ``emitters``), and rays
+that leave the scene read the uniform sky. The light and the shade of the corner are so read
+where the ray landed, which the near field (``reconstruct.nearfield``) does with linear
+interpolants of the patch's corner colours (a cut piece of a triangle has none): this replaces it
+where Monte Carlo carries the light (docs/notes/experiments.md, "A second gather where the rays
+land close").
 
 The hits are geometry only: a re-solve reads them again with other colours.
 """
@@ -36,6 +37,7 @@ import numpy as np
 
 from ..mesh.discretize import Discretization
 from ..rays.visibility import Visibility
+from ..transport.direct import DirectLighting
 from ..util import parallel
 from ..util.geometry import cosine_directions, longest_edges
 from ..util.progress import Report, quiet
@@ -48,6 +50,9 @@ POINTS_PER_BLOCK = 1 << 11  # points per block of work on the thread pool
 # where the rays land close").
 NEAR_HIT = 0.5
 SECOND_RAYS = 4
+# The lights' light is kept at each such ray, 4 bytes per light: beyond this many lights the near
+# field reads the near patches instead.
+MAX_NEAR_LIGHTS = 8
 # The final gather is made again with REGATHER_FACTOR times the rays at the nodes whose neighbours'
 # gathers hold REGATHER_SHARE of the variance (``noisy_nodes``), while that is at most
 # REGATHER_MAX_RAYS rays: on Sponza, from 64 rays, most of the gain of 4 times the rays everywhere for
@@ -121,6 +126,8 @@ class GatherHits:
         (``emitters.Emitters.met_share``; 1 where a patch emits nothing).
     lamp : (m,) int32 an emitting patch sampled from where each near ray landed (-1: none), and
     lamp_weight : (m,) float32 its weight (``emitters.Emitters.sample``).
+    light_factors : (m, L) float32 the L lights' light where each near ray landed, per unit of
+        their intensities (``DirectLighting.light_factors_at``, the same in every channel).
     """
 
     patches: np.ndarray
@@ -129,21 +136,24 @@ class GatherHits:
     second_share: np.ndarray
     lamp: np.ndarray
     lamp_weight: np.ndarray
+    light_factors: np.ndarray
 
     def read(self, far: np.ndarray, opacity: np.ndarray | None = None, own: np.ndarray | None = None,
              reflectance: np.ndarray | None = None, radiosity: np.ndarray | None = None,
-             emission: np.ndarray | None = None, sky: np.ndarray | None = None) -> Gathered:
+             emission: np.ndarray | None = None, sky: np.ndarray | None = None,
+             lights: np.ndarray | None = None) -> Gathered:
         """The estimate at each point of the light arriving from the patches, with its standard
         error. A ray that stopped at j far from the point reads ``far`` (P, C); a ``near`` one
         reads where it landed
 
-            own_j + rho_j (mean_k (B_q - (1 - s_k) E_q) + w E_lamp),
+            own_j + rho_j (mean_k (B_q - (1 - s_k) E_q) + w E_lamp + sum_l f_l I_l),
 
-        ``own`` (P, C) what j gives beyond the light it reflects from the surfaces and the sky,
-        ``reflectance`` rho (P, C), ``radiosity`` B (P, C) and ``emission`` E (P, C) of the patches
-        q its own rays met, each counting the share s_k of E, or ``sky`` (C,) (None: none) where
-        they left the scene, and w E of the emitter sampled; what that changes at each point is its
-        ``near_change``. What a ray reads at a patch counts 1 / ``opacity`` (P,) there (None: all
+        ``own`` (P, C) what j gives beyond the light it reflects from the surfaces, the sky and the
+        lights, ``reflectance`` rho (P, C), ``radiosity`` B (P, C) and ``emission`` E (P, C) of the
+        patches q its own rays met, each counting the share s_k of E, or ``sky`` (C,) (None: none)
+        where they left the scene, w E of the emitter sampled, and the lights' ``light_factors``
+        f_l at their intensities ``lights`` I (L, C) (None: no lights); what that changes at each
+        point is its ``near_change``. What a ray reads at a patch counts 1 / ``opacity`` (P,) there (None: all
         1): it stopped there with that chance (``Surfaces.hit``)."""
         if len(self.near) and any(value is None for value in (own, reflectance, radiosity, emission)):
             raise ValueError("rays read where they landed need own, reflectance, radiosity and emission")
@@ -167,6 +177,8 @@ class GatherHits:
                 unshared = (1 - self.second_share[first:last].astype(np.float64))[..., None] * emitted[met]
                 arriving = (second[met] - unshared).mean(axis=1) \
                     + self.lamp_weight[first:last, None] * lamps[self.lamp[first:last]]
+                if lights is not None and len(lights):
+                    arriving += self.light_factors[first:last].astype(np.float64) @ lights
                 reading = own[patch] + scale[patch] * arriving
                 point = ray // rays
                 for channel in range(samples.shape[2]):
@@ -190,14 +202,14 @@ def _padded(values: np.ndarray, opacity: np.ndarray | None, outside: np.ndarray 
 
 def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
                 rays: int, seed: int = 0, report: Report = quiet, again: bool = False,
-                near: bool = True) -> GatherHits:
+                near: bool = True, lights: DirectLighting | None = None) -> GatherHits:
     """Where ``rays`` (a perfect square) cosine-distributed rays from each of ``points`` (n, 3)
     facing unit ``normals`` (n, 3) stop (from one uniform point in each of the rays congruent
     squares of the unit square: jittered strata; through see-through surfaces by chance,
     ``Surfaces.hit``), and with ``near``, from where each that landed nearer than NEAR_HIT times
-    its patch's longest edge did, where SECOND_RAYS rays of its own stop and an emitting patch
-    sampled (``emitters``). ``again``: rays of their own, for points gathered a second time
-    (``noisy_nodes``)."""
+    its patch's longest edge did, where SECOND_RAYS rays of its own stop, an emitting patch
+    sampled (``emitters``) and the light of ``lights``' lights there. ``again``: rays of their own,
+    for points gathered a second time (``noisy_nodes``)."""
     surfaces, emitters = Surfaces(mesh, visibility), Emitters(mesh)
     second_rays = SECOND_RAYS if near else 0
     cells, side = _strata(rays)
@@ -227,18 +239,23 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
             second, met = surfaces.hit_or_sky(starts_again, cosine_directions(facing, uv).reshape(-1, 3),
                                               normals_again, rng)
             share = emitters.met_share(starts_again, normals_again, second, met, second_rays)
+        light_count = 0 if lights is None else len(lights.lights)
+        factors = np.zeros((len(close), light_count), np.float32)
+        if len(close) and light_count:
+            factors = lights.light_factors_of_block(at, facing, start)[:, :, 0].astype(np.float32)
         return GatherHits(patch.astype(np.int32).reshape(count, rays), (close + start * rays).astype(index_type),
                           second.astype(np.int32).reshape(len(close), second_rays),
                           share.astype(np.float32).reshape(len(close), second_rays), lamp.astype(np.int32),
-                          lamp_weight.astype(np.float32))
+                          lamp_weight.astype(np.float32), factors)
 
     parts = [part for part in _reported(parallel.map_ordered(block, starts), len(starts), report)]
     if not parts:
         parts = [GatherHits(np.zeros((0, rays), np.int32), np.zeros(0, index_type),
                             np.zeros((0, second_rays), np.int32), np.zeros((0, second_rays), np.float32),
-                            np.zeros(0, np.int32), np.zeros(0, np.float32))]
+                            np.zeros(0, np.int32), np.zeros(0, np.float32),
+                            np.zeros((0, 0 if lights is None else len(lights.lights)), np.float32))]
     return GatherHits(*(np.concatenate([getattr(part, name) for part in parts]) for name in
-                        ("patches", "near", "second", "second_share", "lamp", "lamp_weight")))
+                        ("patches", "near", "second", "second_share", "lamp", "lamp_weight", "light_factors")))
 
 
 def _reported(parts, count: int, report: Report):

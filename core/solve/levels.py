@@ -95,7 +95,7 @@ def solve(light: ArrivingLight, patch_factors: np.ndarray, node_direct: np.ndarr
     gathered = None
     if monte_carlo and not solver.stats["converged"]:
         with stages.within((SHOTS_SHARE, 1.0)):
-            radiosity, node_lighting, gathered = solver.monte_carlo(stages, light.sky_parts(patch_factors))
+            radiosity, node_lighting, gathered = solver.monte_carlo(stages, patch_factors)
     return Solution(solver.light, radiosity, node_lighting, None if gathered is None else gathered.standard_error,
                     change, patch_factors, solver.stats | {"refinements": refinements}, solver.extra_bytes,
                     None if gathered is None else gathered.near_change)
@@ -228,14 +228,13 @@ class _Levels:
         mesh = self.light.mesh
         return self.node_direct + self.light.gathered(mesh.node_points, mesh.node_normals, radiosity, report)
 
-    def monte_carlo(self, stages: Stages, sky: tuple[np.ndarray, np.ndarray] | None):
+    def monte_carlo(self, stages: Stages, patch_factors: np.ndarray):
         """Patch radiosity (P, C), the light arriving at the nodes (N, C) and the final gather's
         ``gather.Gathered`` (None with the hemicube): the shots so far, plus what the light left
         unshot adds with all its bounces, X = U + rho F X, by particle tracing on the patches and a
         final gather at the nodes (``montecarlo``, ``gather``; with the hemicube, the nodes gather
-        the result by hemicube). ``sky``: the uniform sky's light on the patches (P, C) and at an
-        open point (C,) (``ArrivingLight.sky_parts``), which the gather's rays of their own read
-        where they leave the scene, or None."""
+        the result by hemicube). ``patch_factors`` (P, S, 3): the lights' and the sky's light on
+        the patches per source, which the gather reads where its rays land close instead."""
         engine, settings, state = self.light.engine, self.settings, self.state
         mesh = engine.mesh
         visibility = engine.visibility
@@ -253,10 +252,14 @@ class _Levels:
             return radiosity, stages.run("gathering at vertices", (0.5, 1.0), self._gather, radiosity,
                                          timer="gather"), None
         reflectance = mesh.patch_reflectance[:, : self.channels]
-        own = self.sources - shot if sky is None else self.sources - shot - reflectance * sky[0]
+        lights_part, intensities = self.light.light_parts(patch_factors)
+        own = self.sources - shot - reflectance * lights_part
+        sky = self.light.sky_parts(patch_factors)
+        if sky is not None:
+            own -= reflectance * sky[0]
         read = {"far": future, "opacity": mesh.patch_opacity, "own": own, "reflectance": reflectance,
                 "radiosity": radiosity, "emission": mesh.patch_emission[:, : self.channels],
-                "sky": None if sky is None else sky[1]}
+                "sky": None if sky is None else sky[1], "lights": intensities}
         gathered = self._final_gather(mesh, visibility, read, stages)
         return radiosity, state.radiosity[mesh.patch_count:] + gathered.light, gathered
 
@@ -268,14 +271,16 @@ class _Levels:
         whose first estimate the second replaces. Where the rays land, and the nodes gathered
         again, are kept for a re-solve."""
         rays, seed = self.settings.monte_carlo_rays, self.settings.seed
-        # the lights and an environment are read as the patches' means where the rays land close,
-        # and their detail there is the near field's (core/bake.py), which reads those patches then
+        # an environment (or many lights) would be read as the patches' means where the rays land
+        # close: the near field (core/bake.py) reads those patches then
         direct = self.light.direct
-        near = self.settings.near_field and not direct.lights and direct.environment is None
+        near = (self.settings.near_field and direct.environment is None
+                and len(direct.lights) <= gather.MAX_NEAR_LIGHTS)
         if "gather_hits" not in self.kept:
             self.kept["gather_hits"] = stages.run(
                 "final gather", (0.5, 0.8), lambda report: gather.gather_hits(
-                    mesh, visibility, mesh.node_points, mesh.node_normals, rays, seed, report, near=near),
+                    mesh, visibility, mesh.node_points, mesh.node_normals, rays, seed, report, near=near,
+                    lights=direct),
                 timer="monte_carlo")
         first = self.kept["gather_hits"].read(**read)
         if "regathered" not in self.kept:
@@ -288,7 +293,7 @@ class _Levels:
             hits = None if len(nodes) == 0 else stages.run(
                 "final gather again where it is noisy", (0.8, 1.0), lambda report: gather.gather_hits(
                     mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes], more, seed, report,
-                    again=True, near=near), timer="monte_carlo")
+                    again=True, near=near, lights=direct), timer="monte_carlo")
             self.kept["regathered"] = nodes, hits
         nodes, hits = self.kept["regathered"]
         self.stats["monte_carlo"]["regathered_nodes"] = len(nodes)

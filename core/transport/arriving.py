@@ -53,6 +53,13 @@ class ArrivingLight:
         """(m, C) the light of the sources' ``factors`` (m, S, 3) at this light's intensities."""
         return self.direct.combine(factors, self.intensities)[:, : self.channels]
 
+    def light_parts(self, factors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The L lights' part (m, C) of the light of ``factors`` (m, S, 3) (``combined``), and their
+        intensities (L, C) (the sky and an environment come after them)."""
+        lights = len(self.direct.lights)
+        return (self.direct.combine(factors[:, :lights], self.intensities[:lights])[:, : self.channels],
+                self.intensities[:lights, : self.channels])
+
     def sky_parts(self, factors: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         """The uniform sky's part (m, C) of the light of ``factors`` (m, S, 3) (``combined``), and
         the light G (C,) it gives a point open to all of it; None without a sky."""
