@@ -153,8 +153,8 @@ class GatherHits:
         patches q its own rays met, each counting the share s_k of E, or ``sky`` (C,) (None: none)
         where they left the scene, w E of the emitter sampled, and the lights' ``light_factors``
         f_l at their intensities ``lights`` I (L, C) (None: no lights); what that changes at each
-        point is its ``near_change``. What a ray reads at a patch counts 1 / ``opacity`` (P,) there (None: all
-        1): it stopped there with that chance (``Surfaces.hit``)."""
+        point is its ``near_change``. What a ray reads at a patch counts 1 / ``opacity`` (P,) there
+        (None: all 1): it stopped there with that chance (``Surfaces.hit``)."""
         if len(self.near) and any(value is None for value in (own, reflectance, radiosity, emission)):
             raise ValueError("rays read where they landed need own, reflectance, radiosity and emission")
         far = _padded(far, opacity)
@@ -162,7 +162,7 @@ class GatherHits:
             own, scale = _padded(own, opacity), _padded(reflectance, opacity)
             open_sky = np.zeros(far.shape[1]) if sky is None else sky
             second = _padded(radiosity, opacity, open_sky)
-            emitted, lamps = _padded(emission, opacity, 0 * open_sky), _padded(emission, None)
+            emitted, lamps = _padded(emission, opacity, np.zeros_like(open_sky)), _padded(emission, None)
         rays = self.patches.shape[1]
 
         def block(start: int) -> Gathered:
@@ -248,7 +248,7 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
                           share.astype(np.float32).reshape(len(close), second_rays), lamp.astype(np.int32),
                           lamp_weight.astype(np.float32), factors)
 
-    parts = [part for part in _reported(parallel.map_ordered(block, starts), len(starts), report)]
+    parts = list(_reported(parallel.map_ordered(block, starts), len(starts), report))
     if not parts:
         parts = [GatherHits(np.zeros((0, rays), np.int32), np.zeros(0, index_type),
                             np.zeros((0, second_rays), np.int32), np.zeros((0, second_rays), np.float32),

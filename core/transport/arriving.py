@@ -66,7 +66,8 @@ class ArrivingLight:
         if not self.direct.sky.any():
             return None
         index = len(self.direct.lights)  # the sky comes after the lights
-        return (factors[:, index] * self.intensities[index])[:, : self.channels], self.intensities[index, : self.channels]
+        intensity = self.intensities[index, : self.channels]
+        return factors[:, index, : self.channels] * intensity, intensity
 
     def sharp(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """From the emitting patches' first shot and the lights, without the sky: the direct
