@@ -46,10 +46,12 @@ from .montecarlo import Surfaces
 
 POINTS_PER_BLOCK = 1 << 11  # points per block of work on the thread pool
 # A ray that lands nearer than NEAR_HIT times its patch's longest edge is read by SECOND_RAYS rays
-# from where it landed (the choice measured on Sponza: docs/notes/experiments.md, "A second gather
-# where the rays land close").
+# from where it landed, or by one in a gather of more than MANY_RAYS rays, whose number averages
+# their noise (the choices measured on Sponza: docs/notes/experiments.md, "A second gather where the
+# rays land close").
 NEAR_HIT = 0.5
 SECOND_RAYS = 4
+MANY_RAYS = 256
 # The lights' light is kept at each such ray, 4 bytes per light: beyond this many lights the near
 # field reads the near patches instead.
 MAX_NEAR_LIGHTS = 8
@@ -207,11 +209,11 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
     facing unit ``normals`` (n, 3) stop (from one uniform point in each of the rays congruent
     squares of the unit square: jittered strata; through see-through surfaces by chance,
     ``Surfaces.hit``), and with ``near``, from where each that landed nearer than NEAR_HIT times
-    its patch's longest edge did, where SECOND_RAYS rays of its own stop, an emitting patch
-    sampled (``emitters``) and the light of ``lights``' lights there. ``again``: rays of their own,
-    for points gathered a second time (``noisy_nodes``)."""
+    its patch's longest edge did, where SECOND_RAYS rays of its own (one beyond MANY_RAYS rays)
+    stop, an emitting patch sampled (``emitters``) and the light of ``lights``' lights there.
+    ``again``: rays of their own, for points gathered a second time (``noisy_nodes``)."""
     surfaces, emitters = Surfaces(mesh, visibility), Emitters(mesh)
-    second_rays = SECOND_RAYS if near else 0
+    second_rays = 0 if not near else SECOND_RAYS if rays <= MANY_RAYS else 1
     cells, side = _strata(rays)
     second_cells, second_side = _strata(second_rays) if second_rays else (None, 1)
     reach = NEAR_HIT * longest_edges(mesh.patch_corners)
