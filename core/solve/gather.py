@@ -15,9 +15,10 @@ final gather of photon mapping: Jensen, "Global illumination using photon maps",
 
     B_j(y) = E_j + rho_j (L_j + sum_q F(y, q) B_q),
 
-L_j the direct light of the lights at y (``DirectLighting``, up to MAX_NEAR_LIGHTS lights; a scene
-with more, or an environment, which no ray meets, reads its near patches by the near field
-instead: ``gather_hits``'s ``near``); the light of the emitting surfaces E_q is sampled at y as
+L_j the direct light of the lights at y (``DirectLighting``, one shadow ray per light, up to
+MAX_NEAR_LIGHTS point, spot and sun lights; a scene with more, with area lights or with an
+environment, which no ray meets, reads its near patches by the near field instead:
+``gather_hits``'s ``near``); the light of the emitting surfaces E_q is sampled at y as
 well (next-event estimation, weighted against the rays that meet them: ``emitters``), and rays
 that leave the scene read the uniform sky. The light and the shade of the corner are so read
 where the ray landed, which the near field (``reconstruct.nearfield``) does with linear
@@ -129,7 +130,8 @@ class GatherHits:
     lamp : (m,) int32 an emitting patch sampled from where each near ray landed (-1: none), and
     lamp_weight : (m,) float32 its weight (``emitters.Emitters.sample``).
     light_factors : (m, L) float32 the L lights' light where each near ray landed, per unit of
-        their intensities (``DirectLighting.light_factors_at``, the same in every channel).
+        their intensities (one shadow ray each: ``DirectLighting.light_samples_of_block``, the same
+        in every channel).
     """
 
     patches: np.ndarray
@@ -244,7 +246,7 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
         light_count = 0 if lights is None else len(lights.lights)
         factors = np.zeros((len(close), light_count), np.float32)
         if len(close) and light_count:
-            factors = lights.light_factors_of_block(at, facing, start)[:, :, 0].astype(np.float32)
+            factors = lights.light_samples_of_block(at, facing, start)[:, :, 0].astype(np.float32)
         return GatherHits(patch.astype(np.int32).reshape(count, rays), (close + start * rays).astype(index_type),
                           second.astype(np.int32).reshape(len(close), second_rays),
                           share.astype(np.float32).reshape(len(close), second_rays), lamp.astype(np.int32),

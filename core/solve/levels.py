@@ -271,10 +271,10 @@ class _Levels:
         whose first estimate the second replaces. Where the rays land, and the nodes gathered
         again, are kept for a re-solve."""
         rays, seed = self.settings.monte_carlo_rays, self.settings.seed
-        # an environment (or many lights) would be read as the patches' means where the rays land
-        # close: the near field (core/bake.py) reads those patches then
+        # an environment, area lights or many lights would be read as the patches' means where the
+        # rays land close: the near field (core/bake.py) reads those patches then
         direct = self.light.direct
-        near = (self.settings.near_field and direct.environment is None
+        near = (self.settings.near_field and direct.environment is None and not direct.has_area_lights
                 and len(direct.lights) <= gather.MAX_NEAR_LIGHTS)
         if "gather_hits" not in self.kept:
             self.kept["gather_hits"] = stages.run(

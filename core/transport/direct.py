@@ -134,12 +134,20 @@ class DirectLighting:
         """(m, L, 3) ``factors_at`` of the L lights alone, without the sky."""
         if not self.lights:
             return np.zeros((len(points), 0, 3))
-        return self._in_blocks(points, normals, self.light_factors_of_block, lambda _fraction: None)
+        factors = self._in_blocks(points, normals, lambda block, block_normals, first: self._sharp(
+            block, block_normals, first) + self._area_lights(block, block_normals), lambda _fraction: None)
+        return factors[:, : len(self.lights)]
 
-    def light_factors_of_block(self, points: np.ndarray, normals: np.ndarray, first: int) -> np.ndarray:
-        """(m, L, 3) ``light_factors_at`` of one block of points, on the calling thread, its random
-        samples drawn from the stream of ``first``."""
-        return (self._sharp(points, normals, first) + self._area_lights(points, normals))[:, : len(self.lights)]
+    @property
+    def has_area_lights(self) -> bool:
+        return bool(self._area)
+
+    def light_samples_of_block(self, points: np.ndarray, normals: np.ndarray, first: int) -> np.ndarray:
+        """(m, L, 3) one unbiased estimate of ``light_factors_at`` at each of one block of points
+        (of point, spot and sun lights: not area lights), on the calling thread: one shadow ray per
+        light and point, a soft light's samples stratified over the points in order (as a patch's
+        points are: ``_sharp``'s ``paired``), drawn from the stream of ``first``."""
+        return self._sharp(points, normals, first, paired=True)[:, : len(self.lights)]
 
     def patch_factors(self, corners: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
         """(P, S, 3) per source and unit intensity, G over patches (P, 3, 3): the mean over
