@@ -130,7 +130,8 @@ KNOBS: tuple[Knob, ...] = (
          exposed=False),
     Knob("near_field", bool, True, "Read the patches next to each vertex from their linear interpolants, not "
          "their means (the vertices along concave edges and contact lines); with Monte Carlo the final gather "
-         "reads them where its rays land instead", exposed=False),
+         "reads them where its rays land instead (but under an environment, area lights or more than 8 lights)",
+         exposed=False),
     Knob("probe_rays", bool, True, "Ray casting: cast a quarter of each form factor's rays first and the rest only "
          "where they disagree: about half the time, shadows a little less exact", exposed=False),
     Knob("max_iterations", int, 100_000, "Jacobi and Gauss-Seidel stop after this many sweeps", "sweeps", low=0,

@@ -235,10 +235,10 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
             distance = np.linalg.norm(landed - origins, axis=1)
             close = np.flatnonzero((patch >= 0) & (distance < reach[np.maximum(patch, 0)]))
         at, facing = landed[close], mesh.patch_normals[patch[close]]  # the side landed on faces back along the ray
-        uv = second_cells[None] + rng.random((len(close), second_rays, 2)) / second_side if len(close) else None
         lamp, lamp_weight = emitters.sample(visibility, at, facing, rng, second_rays)
         second, share = np.zeros((len(close), second_rays), np.int32), np.ones((len(close), second_rays))
         if len(close):
+            uv = second_cells[None] + rng.random((len(close), second_rays, 2)) / second_side
             starts_again, normals_again = np.repeat(at, second_rays, axis=0), np.repeat(facing, second_rays, axis=0)
             second, met = surfaces.hit_or_sky(starts_again, cosine_directions(facing, uv).reshape(-1, 3),
                                               normals_again, rng)
@@ -252,7 +252,10 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
                           share.astype(np.float32).reshape(len(close), second_rays), lamp.astype(np.int32),
                           lamp_weight.astype(np.float32), factors)
 
-    parts = list(_reported(parallel.map_ordered(block, starts), len(starts), report))
+    parts = []
+    for done, part in enumerate(parallel.map_ordered(block, starts), 1):
+        parts.append(part)
+        report(done / len(starts))
     if not parts:
         parts = [GatherHits(np.zeros((0, rays), np.int32), np.zeros(0, index_type),
                             np.zeros((0, second_rays), np.int32), np.zeros((0, second_rays), np.float32),
@@ -260,13 +263,6 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
                             np.zeros((0, 0 if lights is None else len(lights.lights)), np.float32))]
     return GatherHits(*(np.concatenate([getattr(part, name) for part in parts]) for name in
                         ("patches", "near", "second", "second_share", "lamp", "lamp_weight", "light_factors")))
-
-
-def _reported(parts, count: int, report: Report):
-    """``parts`` one by one, each ``report``-ed as a share of ``count``."""
-    for done, part in enumerate(parts, 1):
-        report(done / count)
-        yield part
 
 
 def _strata(count: int) -> tuple[np.ndarray, int]:
