@@ -46,6 +46,13 @@ POINTS_PER_BLOCK = 1024
 # small share s of the hemisphere, and n stratified directions see it to about sqrt(s / n) of
 # its light: a few hundred directions keep a small window's blotches to a few percent of it.
 SKY_RAYS_PER_RAY = 16
+# A patch's sky light (from its centroid) takes a quarter of a point's directions: it only sets
+# how much light the patch sends on (the particles, and the gather's rays that land far from it,
+# which average many patches); where the gather's rays land close the sky is read where they
+# landed. On the breakfast room: the patches' sky 11 -> 3 s, the error from path tracing
+# 13.1 / 11.6 -> 13.3 / 11.7 % (seeds 0 / 1; docs/notes/experiments.md, "Where the breakfast
+# room's time goes").
+PATCH_SKY_RAYS_PER_RAY = 4
 # A point (not a patch) that sees part of the sky looks again, OUTLINE_LOOKS times: each look
 # samples every stratum once more and the strata on the sky's outline (those where its first
 # directions differ from a neighbour's, and the ring around them) OUTLINE_SPLIT x OUTLINE_SPLIT
@@ -65,7 +72,8 @@ class DirectLighting:
     """G = H / pi from the lights and the sky at points, with shadows by rays.
 
     rays : light samples per piece of an area light (as the bake's rays per form factor; the sky
-        gets SKY_RAYS_PER_RAY times as many directions per point); seed fixes them. An area light
+        gets SKY_RAYS_PER_RAY times as many directions per point, PATCH_SKY_RAYS_PER_RAY per patch); seed
+        fixes them. An area light
         of few triangles is split into at least ``discretize.MIN_LIGHT_PIECES`` pieces (its penumbrae
         need them), unless the splits of all of them would add more than MAX_ADDED_LIGHT_PIECES.
     """
@@ -152,7 +160,8 @@ class DirectLighting:
     def patch_factors(self, corners: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
         """(P, S, 3) per source and unit intensity, G over patches (P, 3, 3): the mean over
         ``rays`` stratified points of each patch for point, spot and sun lights (their shadows
-        are sharp); at the centroid for area lights and the sky, whose light changes smoothly."""
+        are sharp); at the centroid for area lights and the sky, whose light changes smoothly (the sky
+        from PATCH_SKY_RAYS_PER_RAY directions per ray)."""
         return self._in_blocks(corners, normals, self._patch_block, report)
 
     def combine(self, factors: np.ndarray, intensities: np.ndarray | None = None) -> np.ndarray:
@@ -183,7 +192,7 @@ class DirectLighting:
         samples = stratified_samples(corners, self.rays, self.seed + first)  # (k, S, 3)
         sharp = self._sharp(samples.reshape(-1, 3), np.repeat(normals, self.rays, axis=0), first, paired=True)
         return sharp.reshape(len(corners), self.rays, *sharp.shape[1:]).mean(axis=1) + self._smooth(
-            corners.mean(axis=1), normals, first)[0]
+            corners.mean(axis=1), normals, first, sky_rays=PATCH_SKY_RAYS_PER_RAY)[0]
 
     def _sharp(self, points, normals, first: int, paired: bool = False) -> np.ndarray:
         """(m, S, 3) point, spot and sun lights at points: one shadow ray each to a point light
@@ -250,15 +259,17 @@ class DirectLighting:
                       + (sin_theta * np.sin(phi))[..., None] * bitangent[0])  # (k, s, 3)
         return self._unblocked(points, normals, directions, None).mean(axis=1)
 
-    def _smooth(self, points, normals, first, outlined: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        """(m, S, 3) area lights and the sky; ``outlined``, where a point sees part of the sky, the
-        mean of OUTLINE_LOOKS looks along its outline (``_looked``); and (m, S, 3) the standard
-        error of that mean, from the looks' spread (zero elsewhere)."""
+    def _smooth(self, points, normals, first, outlined: bool = False,
+                sky_rays: int = SKY_RAYS_PER_RAY) -> tuple[np.ndarray, np.ndarray]:
+        """(m, S, 3) area lights and the sky (from ``rays`` x ``sky_rays`` directions); ``outlined``,
+        where a point sees part of the sky, the mean of OUTLINE_LOOKS looks along its outline
+        (``_looked``); and (m, S, 3) the standard error of that mean, from the looks' spread (zero
+        elsewhere)."""
         result = self._area_lights(points, normals)
         noise = np.zeros_like(result)
         if self.sky.any() or self.environment is not None:
             rotation = self._rotation(first, 0, len(points))
-            directions, open_sky = self._open_sky(points, normals, rotation)
+            directions, open_sky = self._open_sky(points, normals, rotation, sky_rays)
             sky = self._sky(directions, open_sky)
             partly = np.flatnonzero((open_sky > 0).any(axis=1) & (open_sky < 1).any(axis=1))
             if outlined and len(partly):
@@ -325,12 +336,13 @@ class DirectLighting:
             result[:, index] = (factors.reshape(count, sources).sum(axis=1) / (math.pi * area))[:, None]
         return result
 
-    def _open_sky(self, points, normals, rotation) -> tuple[np.ndarray, np.ndarray]:
+    def _open_sky(self, points, normals, rotation,
+                  sky_rays: int = SKY_RAYS_PER_RAY) -> tuple[np.ndarray, np.ndarray]:
         """Directions (m, K, 3) over each point's cosine-weighted hemisphere, and which of them
-        (m, K) see no surface: K = ``rays`` x SKY_RAYS_PER_RAY stratified directions by Malley's
+        (m, K) see no surface: K = ``rays`` x ``sky_rays`` stratified directions by Malley's
         method (``_cosine_directions``), each point's strata turned by its ``rotation`` (m, 2) of
         the unit square (random: Cranley-Patterson)."""
-        grid = _strata(self.rays * SKY_RAYS_PER_RAY)
+        grid = _strata(self.rays * sky_rays)
         # the angle 2 pi (stratum + rotation): its cosine and sine from those of its two parts
         stratum, turn = 2 * math.pi * grid[:, 1], 2 * math.pi * rotation[:, 1:]
         directions = _cosine_directions((grid[:, 0] + rotation[:, :1]) % 1.0,
