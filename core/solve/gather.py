@@ -26,6 +26,10 @@ interpolants of the patch's corner colours (a cut piece of a triangle has none):
 where Monte Carlo carries the light (docs/notes/experiments.md, "A second gather where the rays
 land close").
 
+The patches that few particles reached read their own light by a gather too (``patch_hits``,
+``patch_light``): X_p = U_p + rho_p sum_q F(p, q) X_q over stratified points of p, in place of
+their pool's mean (``montecarlo.pools``), which is unbiased only over the whole pool.
+
 The hits are geometry only: a re-solve reads them again with other colours.
 """
 
@@ -40,7 +44,7 @@ from ..mesh.discretize import Discretization
 from ..rays.visibility import Visibility
 from ..transport.direct import DirectLighting
 from ..util import parallel
-from ..util.geometry import cosine_directions, longest_edges
+from ..util.geometry import cosine_directions, longest_edges, uniform_points
 from ..util.progress import Report, quiet
 from .emitters import Emitters
 from .montecarlo import Surfaces
@@ -63,6 +67,16 @@ MAX_NEAR_LIGHTS = 8
 REGATHER_SHARE = 0.9
 REGATHER_FACTOR = 4
 REGATHER_MAX_RAYS = 256
+# A patch that fewer than SPARSE_HITS particles landed on reads its light by PATCH_RAYS rays, one from
+# each of as many stratified points of it (``patch_hits``, ``patch_light``), not by its pool: on
+# Sponza, against path tracing at such patches, the pools read 0.28 to 1.13 times the light on
+# average, such a gather 1.01 to 1.09 (docs/notes/experiments.md, "A gather at the patches the
+# particles seldom reach", which also has 4 and 16 rays).
+SPARSE_HITS = 32
+PATCH_RAYS = 9
+# The random streams of the gathers (with the seed and the block): at the nodes, at the nodes
+# gathered again, at the patches.
+NODE_STREAM, AGAIN_STREAM, PATCH_STREAM = 2, 3, 4
 
 
 @dataclass(frozen=True)
@@ -205,15 +219,17 @@ def _padded(values: np.ndarray, opacity: np.ndarray | None, outside: np.ndarray 
 
 
 def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
-                rays: int, seed: int = 0, report: Report = quiet, again: bool = False,
-                near: bool = True, lights: DirectLighting | None = None) -> GatherHits:
+                rays: int, seed: int = 0, report: Report = quiet, stream: int = NODE_STREAM,
+                near: bool = True, lights: DirectLighting | None = None, first: int = 0) -> GatherHits:
     """Where ``rays`` (a perfect square) cosine-distributed rays from each of ``points`` (n, 3)
     facing unit ``normals`` (n, 3) stop (from one uniform point in each of the rays congruent
     squares of the unit square: jittered strata; through see-through surfaces by chance,
     ``Surfaces.hit``), and with ``near``, from where each that landed nearer than NEAR_HIT times
     its patch's longest edge did, where SECOND_RAYS rays of its own (one beyond MANY_RAYS rays)
     stop, an emitting patch sampled (``emitters``) and the light of ``lights``' lights there.
-    ``again``: rays of their own, for points gathered a second time (``noisy_nodes``)."""
+    ``stream``: the random numbers' (``NODE_STREAM``, ``AGAIN_STREAM`` for points gathered a second
+    time: ``noisy_nodes``, ``PATCH_STREAM``), drawn per block of points from the index among all
+    of them of its first, ``first`` that of ``points[0]``."""
     surfaces, emitters = Surfaces(mesh, visibility), Emitters(mesh)
     second_rays = 0 if not near else SECOND_RAYS if rays <= MANY_RAYS else 1
     cells, side = _strata(rays)
@@ -223,7 +239,7 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
     starts = range(0, len(points), POINTS_PER_BLOCK)
 
     def block(start: int) -> GatherHits:
-        rng = np.random.default_rng([seed, 3 if again else 2, start])
+        rng = np.random.default_rng([seed, stream, first + start])
         chosen = slice(start, start + POINTS_PER_BLOCK)
         count = len(points[chosen])
         directions = cosine_directions(normals[chosen], cells[None] + rng.random((count, rays, 2)) / side)
@@ -278,6 +294,33 @@ def gather(mesh: Discretization, visibility: Visibility, points: np.ndarray, nor
     (n, 3), each patch read as its value (no second rays): sum_j F(x, j) values_j."""
     return gather_hits(mesh, visibility, points, normals, rays, seed, report, near=False).read(
         values, mesh.patch_opacity)
+
+
+def patch_hits(mesh: Discretization, visibility: Visibility, patches: np.ndarray, rays: int = PATCH_RAYS,
+               seed: int = 0, report: Report = quiet) -> np.ndarray:
+    """(k, rays) int32 the patch where one cosine-distributed ray from each of ``rays`` (a perfect
+    square) jittered stratified points of each of ``patches`` (k,) stopped (-1: none), read by
+    ``patch_light``."""
+    cells, side = _strata(rays)
+    chunk = max(1, (1 << 20) // rays)  # patches whose points are made at once (each a gather's set-up)
+    parts = []
+    for start in range(0, len(patches), chunk):
+        chosen = patches[start:start + chunk]
+        rng = np.random.default_rng([seed, PATCH_STREAM, start, 0])  # not a gather block's (three numbers)
+        uv = (cells[None] + rng.random((len(chosen), rays, 2)) / side).reshape(-1, 2)
+        points = uniform_points(np.repeat(mesh.patch_corners[chosen], rays, axis=0), uv)
+        hits = gather_hits(mesh, visibility, points, np.repeat(mesh.patch_normals[chosen], rays, axis=0), 1,
+                           seed, stream=PATCH_STREAM, near=False, first=start * rays)
+        parts.append(hits.patches.reshape(len(chosen), rays))
+        report(min(start + chunk, len(patches)) / len(patches))
+    return np.concatenate(parts) if parts else np.zeros((0, rays), np.int32)
+
+
+def patch_light(hits: np.ndarray, values: np.ndarray, opacity: np.ndarray | None = None) -> np.ndarray:
+    """(k, C) the light arriving over each patch of ``patch_hits``' ``hits`` (k, rays) from patch
+    ``values`` (P, C): sum_q F(p, q) values_q, the mean of the values its rays met (each over the
+    ``opacity`` (P,) of the patch it stopped at, None: 1; 0 where none)."""
+    return _padded(values, opacity)[hits].mean(axis=1)
 
 
 def noisy_nodes(variance: np.ndarray, corner_node: np.ndarray, share: float = REGATHER_SHARE) -> np.ndarray:

@@ -220,8 +220,15 @@ class _Levels:
             paths = self.kept["paths"] = stages.run(
                 "tracing particles", (0.0, 0.4), montecarlo.trace_paths, mesh, visibility, unshot, reflectance,
                 particles, self.settings.seed, timer="monte_carlo")
-        future = stages.run("reading the particles' paths", (0.4, 0.5), lambda report: paths.future(
+        future = stages.run("reading the particles' paths", (0.4, 0.45), lambda report: paths.future(
             mesh, unshot, reflectance, report), timer="paths")
+        if traced or "patch_hits" not in self.kept:  # the patches few particles reached, and where their rays went
+            sparse = np.flatnonzero(np.bincount(paths.landings, minlength=mesh.patch_count) < gather.SPARSE_HITS)
+            self.kept["patch_hits"] = sparse, stages.run(
+                "gathering at the patches few particles reached", (0.45, 0.5), gather.patch_hits, mesh, visibility,
+                sparse, gather.PATCH_RAYS, self.settings.seed, timer="monte_carlo")
+        sparse, hits = self.kept["patch_hits"]
+        future[sparse] = unshot[sparse] + reflectance[sparse] * gather.patch_light(hits, future, mesh.patch_opacity)
         return future, traced
 
     def _gather(self, radiosity: np.ndarray, report) -> np.ndarray:
@@ -247,7 +254,7 @@ class _Levels:
         shot = state.radiosity[: mesh.patch_count] - state.unshot
         radiosity = shot + future
         self.stats["monte_carlo"] = {"particles": particles, "gather_rays": settings.monte_carlo_rays,
-                                     "traced": traced}
+                                     "traced": traced, "gathered_patches": len(self.kept["patch_hits"][0])}
         if engine.method == "hemicube":  # the estimate keeps the unshot light's bound
             return radiosity, stages.run("gathering at vertices", (0.5, 1.0), self._gather, radiosity,
                                          timer="gather"), None
@@ -293,7 +300,7 @@ class _Levels:
             hits = None if len(nodes) == 0 else stages.run(
                 "final gather again where it is noisy", (0.8, 1.0), lambda report: gather.gather_hits(
                     mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes], more, seed, report,
-                    again=True, near=near, lights=direct), timer="monte_carlo")
+                    stream=gather.AGAIN_STREAM, near=near, lights=direct), timer="monte_carlo")
             self.kept["regathered"] = nodes, hits
         nodes, hits = self.kept["regathered"]
         self.stats["monte_carlo"]["regathered_nodes"] = len(nodes)
