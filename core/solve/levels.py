@@ -212,7 +212,9 @@ class _Levels:
         """X (P, C) for the unshot light, and whether particles were traced for it: the paths of
         the last bake's particles are read with the colours of this one where they are about as
         good as new ones (``montecarlo.ParticlePaths.reusable``: a light's colour or strength, or
-        reflectances that do not grow, changed since), else paths are traced and kept."""
+        reflectances that do not grow, changed since), else paths are traced and kept. The patches
+        that fewer than ``gather.SPARSE_HITS`` particles reached read their light by a gather of
+        that X instead (``gather.patch_hits``, kept with the paths)."""
         unshot, reflectance = self.state.unshot, mesh.patch_reflectance[:, : self.channels]
         paths = self.kept.get("paths")
         traced = paths is None or not paths.reusable(mesh, unshot, reflectance)

@@ -72,10 +72,10 @@ class DirectLighting:
     """G = H / pi from the lights and the sky at points, with shadows by rays.
 
     rays : light samples per piece of an area light (as the bake's rays per form factor; the sky
-        gets SKY_RAYS_PER_RAY times as many directions per point, PATCH_SKY_RAYS_PER_RAY per patch); seed
-        fixes them. An area light
-        of few triangles is split into at least ``discretize.MIN_LIGHT_PIECES`` pieces (its penumbrae
-        need them), unless the splits of all of them would add more than MAX_ADDED_LIGHT_PIECES.
+        gets SKY_RAYS_PER_RAY times as many directions per point, PATCH_SKY_RAYS_PER_RAY times per
+        patch); seed fixes them. An area light of few triangles is split into at least
+        ``discretize.MIN_LIGHT_PIECES`` pieces (its penumbrae need them), unless the splits of all
+        of them would add more than MAX_ADDED_LIGHT_PIECES.
     """
 
     def __init__(self, lights: tuple, sky: np.ndarray, visibility: Visibility, rays: int, seed: int,
@@ -160,8 +160,8 @@ class DirectLighting:
     def patch_factors(self, corners: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
         """(P, S, 3) per source and unit intensity, G over patches (P, 3, 3): the mean over
         ``rays`` stratified points of each patch for point, spot and sun lights (their shadows
-        are sharp); at the centroid for area lights and the sky, whose light changes smoothly (the sky
-        from PATCH_SKY_RAYS_PER_RAY directions per ray)."""
+        are sharp); at the centroid for area lights and the sky, whose light changes smoothly (the
+        sky from PATCH_SKY_RAYS_PER_RAY directions per ray)."""
         return self._in_blocks(corners, normals, self._patch_block, report)
 
     def combine(self, factors: np.ndarray, intensities: np.ndarray | None = None) -> np.ndarray:
