@@ -117,8 +117,8 @@ QUICK = {
 REFERENCES = {
     "cornell": Reference("raycast", "jacobi", 24, (("probe_rays", False), ("rays_per_form_factor", 16),
                                                    ("tolerance", 1e-6))),
-    # no bake of ours converges on Sponza: 32,000 paths at 1,000 corners cost what the path_traced
-    # study's 80,000 at 400 do, for sqrt(80 / 32) times its noise over 2.5 times the corners
+    # no bake of ours converges on Sponza: 32,000 paths at 1,000 corners, 0.8 of the path_traced
+    # study's 40,000 there, for sqrt(40 / 32) times its noise
     "sponza": PathTraced(corners=1000, paths=32_000),
 }
 QUICK_REFERENCES = {
