@@ -26,6 +26,12 @@ interpolants of the patch's corner colours (a cut piece of a triangle has none):
 where Monte Carlo carries the light (docs/notes/experiments.md, "A second gather where the rays
 land close").
 
+Those rays' own rays may land close again: in a crack, under a cup on its saucer, the patches q
+around y are lit, on the whole, quite unlike the few millimetres the rays see of them. So each of
+them that lands at y' nearer than DEEP_HIT times its patch's longest edge is followed in turn, one
+ray from y' reading B_q(y') the same way, up to NEAR_BOUNCES bounces from the gather's ray (a path
+traced until it lands far enough for the patch's mean to stand for what it meets).
+
 The patches that few particles reached read their own light by a gather too (``patch_hits``,
 ``patch_light``): X_p = U_p + rho_p sum_q F(p, q) X_q over stratified points of p, in place of
 their pool's mean (``montecarlo.pools``), which is unbiased only over the whole pool.
@@ -57,6 +63,12 @@ POINTS_PER_BLOCK = 1 << 11  # points per block of work on the thread pool
 NEAR_HIT = 0.5
 SECOND_RAYS = 4
 MANY_RAYS = 256
+# A bounce's ray that lands nearer than DEEP_HIT times its patch's longest edge is followed by one ray
+# of its own, up to NEAR_BOUNCES bounces from the gather's ray: a patch's mean misreads the light
+# between surfaces millimetres apart (docs/notes/experiments.md, "Following the rays that land close
+# again", which has 1 to 32 bounces and DEEP_HIT from 0.02 to 0.5).
+NEAR_BOUNCES = 8
+DEEP_HIT = 0.25
 # The lights' light is kept at each such ray, 4 bytes per light: beyond this many lights the near
 # field reads the near patches instead.
 MAX_NEAR_LIGHTS = 8
@@ -130,80 +142,127 @@ def check_gather_rays(count: int) -> int:
 
 
 @dataclass(frozen=True)
+class Bounce:
+    """The rays of one bounce from where rays of the level before landed close to their patch.
+
+    near : (m,) int32 or int64 the rays of the level before so followed (sorted flat indices into
+        its rays: a gather's ``patches``, or the last bounce's).
+    patches : (m, k) int32 where the k rays from each of their landing points stopped (-1: the back
+        of a one-sided face or nothing, read as 0; -2: they left the scene, read as the sky).
+    share : (m, k) float32 the share of those patches' emission that the rays count
+        (``emitters.Emitters.met_share``; 1 where a patch emits nothing).
+    lamp : (m,) int32 an emitting patch sampled from each landing point (-1: none), and
+    lamp_weight : (m,) float32 its weight (``emitters.Emitters.sample``).
+    light_factors : (m, L) float32 the L lights' light at each landing point, per unit of their
+        intensities (one shadow ray each: ``DirectLighting.light_samples_of_block``, the same in
+        every channel).
+    """
+
+    near: np.ndarray
+    patches: np.ndarray
+    share: np.ndarray
+    lamp: np.ndarray
+    lamp_weight: np.ndarray
+    light_factors: np.ndarray
+
+    @staticmethod
+    def empty(rays: int, lights: int, index_type=np.int64) -> Bounce:
+        return Bounce(np.zeros(0, index_type), np.zeros((0, rays), np.int32), np.zeros((0, rays), np.float32),
+                      np.zeros(0, np.int32), np.zeros(0, np.float32), np.zeros((0, lights), np.float32))
+
+    @staticmethod
+    def joined(parts: list[Bounce], before: list[int]) -> Bounce:
+        """``parts`` of consecutive blocks one after another, each one's ``near`` moved on by the
+        rays of the level before in the blocks before it (``before``, one count per part)."""
+        offsets = np.cumsum([0] + before[:-1])
+        near = np.concatenate([part.near + offset for part, offset in zip(parts, offsets)])
+        return Bounce(near, *(np.concatenate([getattr(part, name) for part in parts])
+                              for name in ("patches", "share", "lamp", "lamp_weight", "light_factors")))
+
+
+@dataclass(frozen=True)
 class GatherHits:
     """Where the rays of a final gather landed (``gather_hits``), to be read with any colours.
 
     patches : (n, K) int32 the patch each ray of each point stopped at (-1: none).
-    near : (m,) int32 or int64 the rays read by rays of their own (flat indices into ``patches``,
-        sorted).
-    second : (m, k) int32 the patches where those rays' own rays stopped (-1: the back of a
-        one-sided face or nothing, read as 0; -2: they left the scene, read as the sky); k = 0
-        where no ray is read so (``gather_hits``'s ``near``).
-    second_share : (m, k) float32 the share of those patches' emission that the rays count
-        (``emitters.Emitters.met_share``; 1 where a patch emits nothing).
-    lamp : (m,) int32 an emitting patch sampled from where each near ray landed (-1: none), and
-    lamp_weight : (m,) float32 its weight (``emitters.Emitters.sample``).
-    light_factors : (m, L) float32 the L lights' light where each near ray landed, per unit of
-        their intensities (one shadow ray each: ``DirectLighting.light_samples_of_block``, the same
-        in every channel).
+    bounces : the ``Bounce`` of the rays followed from where these landed close, then from where
+        those landed close, and so on (empty where none are: ``gather_hits``'s ``near``).
     """
 
     patches: np.ndarray
-    near: np.ndarray
-    second: np.ndarray
-    second_share: np.ndarray
-    lamp: np.ndarray
-    lamp_weight: np.ndarray
-    light_factors: np.ndarray
+    bounces: tuple[Bounce, ...] = ()
 
     def read(self, far: np.ndarray, opacity: np.ndarray | None = None, own: np.ndarray | None = None,
              reflectance: np.ndarray | None = None, radiosity: np.ndarray | None = None,
              emission: np.ndarray | None = None, sky: np.ndarray | None = None,
              lights: np.ndarray | None = None) -> Gathered:
         """The estimate at each point of the light arriving from the patches, with its standard
-        error. A ray that stopped at j far from the point reads ``far`` (P, C); a ``near`` one
-        reads where it landed
+        error. A ray that stopped at j far from the point reads ``far`` (P, C); a ray followed by a
+        bounce (``near``) reads where it landed
 
-            own_j + rho_j (mean_k (B_q - (1 - s_k) E_q) + w E_lamp + sum_l f_l I_l),
+            own_j + rho_j A,   A = mean_k R_k + w E_lamp + sum_l f_l I_l,
 
         ``own`` (P, C) what j gives beyond the light it reflects from the surfaces, the sky and the
-        lights, ``reflectance`` rho (P, C), ``radiosity`` B (P, C) and ``emission`` E (P, C) of the
-        patches q its own rays met, each counting the share s_k of E, or ``sky`` (C,) (None: none)
-        where they left the scene, w E of the emitter sampled, and the lights' ``light_factors``
-        f_l at their intensities ``lights`` I (L, C) (None: no lights); what that changes at each
-        point is its ``near_change``. What a ray reads at a patch counts 1 / ``opacity`` (P,) there
-        (None: all 1): it stopped there with that chance (``Surfaces.hit``)."""
-        if len(self.near) and any(value is None for value in (own, reflectance, radiosity, emission)):
+        lights, ``reflectance`` rho (P, C), w E of the emitter sampled and the lights'
+        ``light_factors`` f_l at their intensities ``lights`` I (L, C) (None: no lights). The
+        bounce's ray k that met patch q counts the share s_k of its emission E (``emission``,
+        (P, C)) and reads R_k = B_q - (1 - s_k) E_q of ``radiosity`` B (P, C), or where it landed,
+        if it is followed in turn, s_k E_q + rho_q A' (A' that of the next bounce), or ``sky``
+        (C,) (None: none) where it left the scene. What that changes at each point is its
+        ``near_change``. What a ray reads at a patch counts 1 / ``opacity`` (P,) there (None: all
+        1): it stopped there with that chance (``Surfaces.hit``)."""
+        if self.bounces and len(self.bounces[0].near) and any(
+                value is None for value in (own, reflectance, radiosity, emission)):
             raise ValueError("rays read where they landed need own, reflectance, radiosity and emission")
         far = _padded(far, opacity)
-        if len(self.near):
+        if self.bounces:
             own, scale = _padded(own, opacity), _padded(reflectance, opacity)
             open_sky = np.zeros(far.shape[1]) if sky is None else sky
             second = _padded(radiosity, opacity, open_sky)
             emitted, lamps = _padded(emission, opacity, np.zeros_like(open_sky)), _padded(emission, None)
         rays = self.patches.shape[1]
 
+        def arriving_at_bounces(low: int, high: int) -> tuple[np.ndarray, tuple[int, int]]:
+            """A (m, C) at the landing points of the rays ``near[first:last]`` of the first bounce
+            that follow the rays ``low:high`` of the gather, and that range: from the last bounce up."""
+            spans = []
+            for bounce in self.bounces:
+                first, last = np.searchsorted(bounce.near, [low, high])
+                spans.append((first, last))
+                low, high = first * bounce.patches.shape[1], last * bounce.patches.shape[1]
+            arriving = None
+            for depth in reversed(range(len(self.bounces))):
+                bounce, (first, last) = self.bounces[depth], spans[depth]
+                met = bounce.patches[first:last]
+                share = bounce.share[first:last].astype(np.float64)
+                values = second[met] - (1 - share)[..., None] * emitted[met]
+                if arriving is not None and len(arriving):  # the rays followed by the next bounce
+                    deeper, (after, until) = self.bounces[depth + 1], spans[depth + 1]
+                    followed = deeper.near[after:until] - first * met.shape[1]
+                    patch = met.reshape(-1)[followed]
+                    values.reshape(-1, values.shape[2])[followed] = \
+                        share.reshape(-1)[followed, None] * emitted[patch] + scale[patch] * arriving
+                arriving = values.mean(axis=1) + bounce.lamp_weight[first:last, None] * lamps[bounce.lamp[first:last]]
+                if lights is not None and len(lights):
+                    arriving += bounce.light_factors[first:last].astype(np.float64) @ lights
+            return arriving, spans[0]
+
         def block(start: int) -> Gathered:
             hits = self.patches[start:start + POINTS_PER_BLOCK]
             samples = far[hits]
             change = np.zeros((len(hits), samples.shape[2]))
-            first, last = np.searchsorted(self.near, [start * rays, (start + len(hits)) * rays])
-            if last > first:
-                ray = self.near[first:last] - start * rays
+            if self.bounces:
+                arriving, (first, last) = arriving_at_bounces(start * rays, (start + len(hits)) * rays)
+            if self.bounces and last > first:
+                ray = self.bounces[0].near[first:last] - start * rays
                 patch = hits.reshape(-1)[ray]
-                met = self.second[first:last]
-                unshared = (1 - self.second_share[first:last].astype(np.float64))[..., None] * emitted[met]
-                arriving = (second[met] - unshared).mean(axis=1) \
-                    + self.lamp_weight[first:last, None] * lamps[self.lamp[first:last]]
-                if lights is not None and len(lights):
-                    arriving += self.light_factors[first:last].astype(np.float64) @ lights
                 reading = own[patch] + scale[patch] * arriving
                 point = ray // rays
                 for channel in range(samples.shape[2]):
                     change[:, channel] = np.bincount(point, reading[:, channel] - far[patch, channel],
                                                      minlength=len(hits)) / rays
                 samples.reshape(-1, samples.shape[2])[ray] = reading
-            return replace(Gathered.of(samples), near_change=change if self.second.shape[1] else None)
+            return replace(Gathered.of(samples), near_change=change if self.bounces else None)
 
         parts = list(parallel.map_ordered(block, range(0, len(self.patches), POINTS_PER_BLOCK)))
         return Gathered.joined(parts, far.shape[1])
@@ -224,21 +283,25 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
     """Where ``rays`` (a perfect square) cosine-distributed rays from each of ``points`` (n, 3)
     facing unit ``normals`` (n, 3) stop (from one uniform point in each of the rays congruent
     squares of the unit square: jittered strata; through see-through surfaces by chance,
-    ``Surfaces.hit``), and with ``near``, from where each that landed nearer than NEAR_HIT times
-    its patch's longest edge did, where SECOND_RAYS rays of its own (one beyond MANY_RAYS rays)
-    stop, an emitting patch sampled (``emitters``) and the light of ``lights``' lights there.
+    ``Surfaces.hit``), and with ``near``, the ``Bounce`` from where each that landed nearer than
+    NEAR_HIT times its patch's longest edge did: SECOND_RAYS rays of its own (one beyond MANY_RAYS
+    rays), an emitting patch sampled (``emitters``) and the light of ``lights``' lights there; then
+    the bounce of one ray from where each of those landed nearer than DEEP_HIT times its patch's
+    longest edge, and so on, NEAR_BOUNCES bounces at most.
     ``stream``: the random numbers' (``NODE_STREAM``, ``AGAIN_STREAM`` for points gathered a second
     time: ``noisy_nodes``, ``PATCH_STREAM``), drawn per block of points from the index among all
     of them of its first, ``first`` that of ``points[0]``."""
     surfaces, emitters = Surfaces(mesh, visibility), Emitters(mesh)
-    second_rays = 0 if not near else SECOND_RAYS if rays <= MANY_RAYS else 1
     cells, side = _strata(rays)
-    second_cells, second_side = _strata(second_rays) if second_rays else (None, 1)
-    reach = NEAR_HIT * longest_edges(mesh.patch_corners)
-    index_type = np.int32 if len(points) * rays <= np.iinfo(np.int32).max else np.int64
+    edges = longest_edges(mesh.patch_corners)
+    reach, deep_reach = NEAR_HIT * edges, DEEP_HIT * edges
+    index_type = np.int32 if SECOND_RAYS * len(points) * rays <= np.iinfo(np.int32).max else np.int64
+    light_count = 0 if lights is None else len(lights.lights)
+    depth = NEAR_BOUNCES if near else 0
+    followers = [SECOND_RAYS if rays <= MANY_RAYS else 1] + [1] * (depth - 1)  # each bounce's rays per ray
     starts = range(0, len(points), POINTS_PER_BLOCK)
 
-    def block(start: int) -> GatherHits:
+    def block(start: int) -> tuple[np.ndarray, list[Bounce]]:
         rng = np.random.default_rng([seed, stream, first + start])
         chosen = slice(start, start + POINTS_PER_BLOCK)
         count = len(points[chosen])
@@ -246,39 +309,55 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
         origins = np.repeat(points[chosen], rays, axis=0)
         patch, landed = surfaces.hit(origins, directions.reshape(-1, 3), np.repeat(normals[chosen], rays, axis=0),
                                      rng)
-        close = np.zeros(0, np.int64)
-        if second_cells is not None:
-            distance = np.linalg.norm(landed - origins, axis=1)
-            close = np.flatnonzero((patch >= 0) & (distance < reach[np.maximum(patch, 0)]))
-        at, facing = landed[close], mesh.patch_normals[patch[close]]  # the side landed on faces back along the ray
-        lamp, lamp_weight = emitters.sample(visibility, at, facing, rng, second_rays)
-        second, share = np.zeros((len(close), second_rays), np.int32), np.ones((len(close), second_rays))
-        if len(close):
-            uv = second_cells[None] + rng.random((len(close), second_rays, 2)) / second_side
-            starts_again, normals_again = np.repeat(at, second_rays, axis=0), np.repeat(facing, second_rays, axis=0)
-            second, met = surfaces.hit_or_sky(starts_again, cosine_directions(facing, uv).reshape(-1, 3),
-                                              normals_again, rng)
-            share = emitters.met_share(starts_again, normals_again, second, met, second_rays)
-        light_count = 0 if lights is None else len(lights.lights)
-        factors = np.zeros((len(close), light_count), np.float32)
-        if len(close) and light_count:
-            factors = lights.light_samples_of_block(at, facing, start)[:, :, 0].astype(np.float32)
-        return GatherHits(patch.astype(np.int32).reshape(count, rays), (close + start * rays).astype(index_type),
-                          second.astype(np.int32).reshape(len(close), second_rays),
-                          share.astype(np.float32).reshape(len(close), second_rays), lamp.astype(np.int32),
-                          lamp_weight.astype(np.float32), factors)
+        patches, bounces, offset = patch.astype(np.int32).reshape(count, rays), [], start * rays
+        for level in range(depth):
+            close = np.flatnonzero((patch >= 0) & (np.linalg.norm(landed - origins, axis=1)
+                                                   < (reach if level == 0 else deep_reach)[np.maximum(patch, 0)]))
+            bounce, origins, patch, landed = _bounce(mesh, visibility, surfaces, emitters, lights, landed[close],
+                                                     patch[close], followers[level], rng,
+                                                     start + level * len(points))
+            bounces.append(replace(bounce, near=(close + offset).astype(index_type)))
+            offset = 0  # the deeper bounces' are moved on when the blocks are joined
+        return patches, bounces
 
     parts = []
     for done, part in enumerate(parallel.map_ordered(block, starts), 1):
         parts.append(part)
         report(done / len(starts))
-    if not parts:
-        parts = [GatherHits(np.zeros((0, rays), np.int32), np.zeros(0, index_type),
-                            np.zeros((0, second_rays), np.int32), np.zeros((0, second_rays), np.float32),
-                            np.zeros(0, np.int32), np.zeros(0, np.float32),
-                            np.zeros((0, 0 if lights is None else len(lights.lights)), np.float32))]
-    return GatherHits(*(np.concatenate([getattr(part, name) for part in parts]) for name in
-                        ("patches", "near", "second", "second_share", "lamp", "lamp_weight", "light_factors")))
+    patches = np.concatenate([part[0] for part in parts]) if parts else np.zeros((0, rays), np.int32)
+    bounces = []
+    for level in range(depth):
+        levels = [part[1][level] for part in parts] or [Bounce.empty(followers[level], light_count, index_type)]
+        before = [0] * len(levels) if level == 0 else [len(part[1][level - 1].patches.reshape(-1)) for part in parts]
+        bounces.append(Bounce.joined(levels, before))
+    return GatherHits(patches, tuple(bounces))
+
+
+def _bounce(mesh: Discretization, visibility: Visibility, surfaces: Surfaces, emitters: Emitters,
+            lights: DirectLighting | None, at: np.ndarray, patches: np.ndarray, rays: int,
+            rng: np.random.Generator, first: int) -> tuple[Bounce, np.ndarray, np.ndarray, np.ndarray]:
+    """The ``Bounce`` (its ``near`` left empty) of ``rays`` (a perfect square) stratified
+    cosine-distributed rays from each of the points ``at`` (m, 3) on ``patches`` (m,), on the side
+    that faces back along the ray that landed there; and the rays' origins (m k, 3), the patch each
+    stopped at (m k,: -1 none, -2 out of the scene) and where (m k, 3). ``first``: the lights'
+    random stream (``DirectLighting.light_samples_of_block``)."""
+    facing = mesh.patch_normals[patches]
+    lamp, lamp_weight = emitters.sample(visibility, at, facing, rng, rays)
+    origins, normals = np.repeat(at, rays, axis=0), np.repeat(facing, rays, axis=0)
+    met, landed, share = np.zeros(0, np.int64), np.zeros((0, 3)), np.ones(0)
+    if len(at):
+        cells, side = _strata(rays)
+        uv = cells[None] + rng.random((len(at), rays, 2)) / side
+        met, landed = surfaces.hit_or_sky(origins, cosine_directions(facing, uv).reshape(-1, 3), normals, rng)
+        share = emitters.met_share(origins, normals, met, landed, rays)
+    light_count = 0 if lights is None else len(lights.lights)
+    factors = np.zeros((len(at), light_count), np.float32)
+    if len(at) and light_count:
+        factors = lights.light_samples_of_block(at, facing, first)[:, :, 0].astype(np.float32)
+    bounce = Bounce(np.zeros(0, np.int64), met.astype(np.int32).reshape(len(at), rays),
+                    share.astype(np.float32).reshape(len(at), rays), lamp.astype(np.int32),
+                    lamp_weight.astype(np.float32), factors)
+    return bounce, origins, met, landed
 
 
 def _strata(count: int) -> tuple[np.ndarray, int]:
