@@ -50,12 +50,16 @@ class ColumnCache:
         rows = 0 if self._rows is None else self._used * self._rows.itemsize * self._rows.shape[1]
         return rows + self._sparse_bytes
 
-    def add(self, q: int, column: np.ndarray, capture: float) -> None:
-        nonzero = np.flatnonzero(column)
+    def add(self, q: int, column: np.ndarray | tuple[np.ndarray, np.ndarray], capture: float) -> None:
+        """Keep ``column``: its n values, or the indices (int32) and values of its nonzero ones."""
         self._capture[q] = capture
+        if isinstance(column, tuple):
+            self._slot[q] = column
+            self._sparse_bytes += 12 * len(column[0])
+            return
+        nonzero = np.flatnonzero(column)
         if len(nonzero) <= SPARSE * len(column):
-            self._slot[q] = (nonzero.astype(np.int32), column[nonzero])
-            self._sparse_bytes += 12 * len(nonzero)
+            self.add(q, (nonzero.astype(np.int32), column[nonzero]), capture)
             return
         if self._free:
             slot = self._free.pop()
@@ -146,8 +150,9 @@ def progressive(
 
     Receivers are the P patches, then N passive points that receive but never shoot (the
     vertices of Wallace et al. 1989), given by ``passive_reflectance`` and ``passive_emission``
-    (N, C). ``columns(q, tick)`` returns F[:, q] (P + N, k) for the k patches q, and the share
-    of each one's light that lands on a patch (k,), calling ``tick(fraction done)`` as it goes.
+    (N, C). ``columns(q, tick)`` returns F[:, q] for the k patches q, each (P + N,) values or the
+    indices and values of its nonzero ones (``ColumnCache.add``), and the share of each one's
+    light that lands on a patch (k,), calling ``tick(fraction done)`` as it goes.
     When the shooter's column is not at hand, the columns of the next brightest shooters are
     fetched with it (``batch`` at most), since they are about to shoot. Columns are kept while
     they fit ``cache_bytes``, so reshooting is cheap in small scenes; memory otherwise stays
@@ -228,7 +233,7 @@ def progressive(
             for start in range(0, len(wanted), batch):  # (P + N, batch) at a time
                 part = wanted[start:start + batch]
                 fetched, captures = columns(np.array(part), lambda _done: report(done, detail))
-                for q, factors, capture in zip(part, fetched.T, np.clip(captures, 0.0, 1.0)):
+                for q, factors, capture in zip(part, fetched, np.clip(captures, 0.0, 1.0)):
                     cache.add(q, factors, float(capture))
         shooting = unshot[group].copy()  # (k, C)
         captures = cache.captures(group)

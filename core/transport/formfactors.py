@@ -165,18 +165,31 @@ class FormFactorEngine:
                 np.concatenate([mesh.patch_normals, mesh.node_normals]))
 
     @cached_property
-    def _shot_receivers_by_axis(self) -> np.ndarray:
-        """(3, P + N) the receivers' coordinates along each axis, sorted."""
-        return np.sort(self._shot_receivers[0].T, axis=1)
+    def _shot_receivers_by_axis(self) -> tuple[np.ndarray, np.ndarray]:
+        """(3, P + N) each: the receivers in their order along each axis, and their coordinates
+        in that order."""
+        coordinates = self._shot_receivers[0].T
+        order = np.argsort(coordinates, axis=1, kind="stable")
+        return order, np.take_along_axis(coordinates, order, axis=1)
 
     def _few_inside(self, low: np.ndarray, high: np.ndarray) -> np.ndarray:
         """(k,) bool: whether at most REACH_SHARE of the receivers can lie in each box (corners
         (k, 3)), counted along the axis where the fewest lie within its sides; an unbounded box
         holds them all."""
-        by_axis = self._shot_receivers_by_axis
+        by_axis = self._shot_receivers_by_axis[1]
         within = np.min([np.searchsorted(by_axis[axis], high[:, axis], side="right")
                          - np.searchsorted(by_axis[axis], low[:, axis]) for axis in range(3)], axis=0)
         return np.isfinite(low).all(axis=1) & (within <= REACH_SHARE * by_axis.shape[1])
+
+    def _receivers_within(self, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+        """(m,) sorted: the receivers whose coordinate along one axis, the one where the fewest
+        do, lies within ``low``..``high`` (3,): a superset of those in that box, so that a batch
+        of shots searches its room's slab, not the whole scene."""
+        order, by_axis = self._shot_receivers_by_axis
+        first = np.array([np.searchsorted(by_axis[axis], low[axis]) for axis in range(3)])
+        last = np.array([np.searchsorted(by_axis[axis], high[axis], side="right") for axis in range(3)])
+        axis = int(np.argmin(last - first))
+        return np.sort(order[axis, first[axis]:last[axis]])
 
     @property
     def rays_cast(self) -> int:
@@ -248,27 +261,29 @@ class FormFactorEngine:
         mesh = self.mesh
         return self.rows(self.receiving_points[patches], mesh.patch_normals[patches], report)
 
-    def shooting_columns(self, sources: np.ndarray, report: Report = quiet) -> tuple[np.ndarray, np.ndarray]:
-        """F[r, q] for every receiver r and each patch q in ``sources`` (k,): what q shoots; and
-        the share of each q's light that lands on a patch (k,): 1 in a closed scene.
+    def shooting_columns(self, sources: np.ndarray, report: Report = quiet) -> tuple[list, np.ndarray]:
+        """F[r, q] for every receiver r and each patch q in ``sources`` (k,): what q shoots, one
+        column per source, either (P + N,) values or, for a source whose reach is bounded, the
+        receivers (int32) and values of its nonzero ones; and the share of each q's light that
+        lands on a patch (k,): 1 in a closed scene.
 
-        Ray casting evaluates the columns directly at every patch centroid and every node
-        ((P + N, k) values; from REACH_RECEIVERS on, only those in the box the source's own rays
-        reach, ``reach``: the others are 0), and measures the share with a small hemicube (CAPTURE_RESOLUTION)
-        at the source; the hemicube sees from each source and uses reciprocity,
-        F[p, q] = A_q F[q, p] / A_p (Cohen et al. 1988), for the patches only ((P, k) values),
-        and its row sum is the share.
+        Ray casting evaluates the columns directly at every patch centroid and every node (from
+        REACH_RECEIVERS on, only at those in the box the source's own rays reach, ``reach``: the
+        others are 0, and the work of a shot grows with its room, not with the scene), and
+        measures the share with a small hemicube (CAPTURE_RESOLUTION) at the source; the
+        hemicube sees from each source and uses reciprocity, F[p, q] = A_q F[q, p] / A_p (Cohen
+        et al. 1988), for the patches only ((P,) values), and its row sum is the share.
         """
         mesh = self.mesh
         if self.method == "hemicube":
             rows = self.rows(self.receiving_points[sources], mesh.patch_normals[sources], report)
             columns = np.divide(rows.T * mesh.patch_areas[sources], mesh.patch_areas[:, None],
                                 out=np.zeros((mesh.patch_count, len(sources))), where=mesh.patch_areas[:, None] > 0)
-            return columns, rows.sum(axis=1)
+            return list(columns.T), rows.sum(axis=1)
         capture = parallel.submit(hemicube.visible_patches, self.receiving_points[sources], mesh.patch_normals[sources],
                                   CAPTURE_RESOLUTION, self.visibility, mesh)
         points, normals = self._shot_receivers
-        columns = np.zeros((len(points), len(sources)))
+        columns: list = [None] * len(sources)
         bounded = np.zeros(len(sources), dtype=bool)
         if len(points) >= REACH_RECEIVERS:
             low, high = reach.reach_boxes(mesh.patch_corners[sources], mesh.patch_normals[sources], sources,
@@ -276,24 +291,37 @@ class FormFactorEngine:
             bounded = self._few_inside(low, high)
         unbounded = np.flatnonzero(~bounded)
         if len(unbounded):
+            dense = np.zeros((len(points), len(unbounded)))
             pieces = max(parallel.THREADS, -(-len(points) * len(unbounded) // self._pairs_per_block()))
             chunks = np.array_split(np.arange(len(points)), min(pieces, len(points)))
             for done, (chunk, part) in enumerate(zip(chunks, parallel.map_ordered(
                     lambda rows: self.raycaster.grid_form_factors(points[rows], normals[rows], sources[unbounded]),
                     chunks)), 1):
-                columns[np.ix_(chunk, unbounded)] = part
+                dense[chunk] = part
                 report(done / len(chunks) * len(unbounded) / len(sources))
+            for j, column in zip(unbounded, dense.T):
+                columns[j] = column
         if bounded.any():
             inside = np.flatnonzero(bounded)
-            receivers, chosen = self._facing_in_boxes(points, normals, sources[inside], low[inside], high[inside])
+            nearby = self._receivers_within(low[inside].min(axis=0), high[inside].max(axis=0))
+            receivers, chosen = self._facing_in_boxes(points[nearby], normals[nearby], sources[inside], low[inside],
+                                                      high[inside])
+            receivers = nearby[receivers]
+            values = np.zeros(len(receivers))
             size = self._pairs_per_block()
             starts = range(0, len(receivers), size)
             for done, (start, part) in enumerate(zip(starts, parallel.map_ordered(
                     lambda start: self.raycaster.form_factors(points, normals, receivers[start:start + size],
                                                               sources[inside[chosen[start:start + size]]]),
                     starts)), 1):
-                columns[receivers[start:start + size], inside[chosen[start:start + size]]] = part
+                values[start:start + size] = part
                 report((len(unbounded) + done / len(starts) * len(inside)) / len(sources))
+            kept = values != 0
+            receivers, chosen, values = receivers[kept], chosen[kept], values[kept]
+            order = np.argsort(chosen, kind="stable")
+            bounds = np.searchsorted(chosen[order], np.arange(len(inside) + 1))
+            for j, first, last in zip(inside, bounds[:-1], bounds[1:]):
+                columns[j] = (receivers[order[first:last]].astype(np.int32), values[order[first:last]])
         seen, factors = capture.result()
         return columns, (factors * (seen >= 0)).sum(axis=1)
 

@@ -75,9 +75,19 @@ def columns(scene: Scene, culled: bool, monkeypatch) -> tuple[np.ndarray, FormFa
 
     monkeypatch.setattr(engine.raycaster, "form_factors", recorded)
     sources = np.union1d(np.flatnonzero(mesh.patch_emission.any(axis=1)), np.arange(0, mesh.patch_count, 7))
-    result = np.concatenate([engine.shooting_columns(sources[start:start + 16])[0]
-                             for start in range(0, len(sources), 16)], axis=1)
+    size = mesh.patch_count + mesh.node_count
+    result = np.stack([dense(column, size) for start in range(0, len(sources), 16)
+                       for column in engine.shooting_columns(sources[start:start + 16])[0]], axis=1)
     return result, engine, sources, evaluated
+
+
+def dense(column, size: int) -> np.ndarray:
+    """A shooting column's (size,) values, from its values or its nonzero ones' indices and values."""
+    if not isinstance(column, tuple):
+        return column
+    values = np.zeros(size)
+    values[column[0]] = column[1]
+    return values
 
 
 def lost_shares(full: np.ndarray, culled: np.ndarray, engine: FormFactorEngine, sources: np.ndarray,

@@ -47,7 +47,7 @@ def test_progressive_refinement_agrees_with_a_direct_solve(system, ambient):
     matrix, reflectance, emission = system
     truth = exact(*system)
     areas = np.ones(len(matrix))  # the solver only uses areas to rank shooters and weigh energy
-    radiosity, _, stats = progressive.progressive(lambda sources, _tick: (matrix[:, sources], np.ones(len(sources))), areas, reflectance, emission,
+    radiosity, _, stats = progressive.progressive(lambda sources, _tick: (list(matrix[:, sources].T), np.ones(len(sources))), areas, reflectance, emission,
                                               tolerance=1e-9, ambient=ambient)
     assert stats["unshot_fraction"] <= 1e-9
     np.testing.assert_allclose(radiosity, truth, rtol=1e-7, atol=1e-7 * np.abs(truth).max())
@@ -60,7 +60,7 @@ def test_progressive_refinement_shoots_passive_receivers_too(system):
     probes = matrix[:3] * 0.5  # any rows of form factors will do
     probe_reflectance, probe_emission = np.full((3, 3), 0.4), np.full((3, 3), 0.1)
     columns = np.concatenate([matrix, probes])
-    _, passive, _ = progressive.progressive(lambda sources, _tick: (columns[:, sources], np.ones(len(sources))), np.ones(len(matrix)), reflectance,
+    _, passive, _ = progressive.progressive(lambda sources, _tick: (list(columns[:, sources].T), np.ones(len(sources))), np.ones(len(matrix)), reflectance,
                                         emission, probe_reflectance, probe_emission, tolerance=1e-10, ambient=False)
     np.testing.assert_allclose(passive, probe_emission + probe_reflectance * (probes @ truth), rtol=1e-7)
 
