@@ -167,6 +167,7 @@ class Bounce:
 
     @staticmethod
     def empty(rays: int, lights: int, index_type=np.int64) -> Bounce:
+        """A bounce of ``rays`` rays per ray followed, with ``lights`` lights, that follows none."""
         return Bounce(np.zeros(0, index_type), np.zeros((0, rays), np.int32), np.zeros((0, rays), np.float32),
                       np.zeros(0, np.int32), np.zeros(0, np.float32), np.zeros((0, lights), np.float32))
 
@@ -223,8 +224,9 @@ class GatherHits:
         rays = self.patches.shape[1]
 
         def arriving_at_bounces(low: int, high: int) -> tuple[np.ndarray, tuple[int, int]]:
-            """A (m, C) at the landing points of the rays ``near[first:last]`` of the first bounce
-            that follow the rays ``low:high`` of the gather, and that range: from the last bounce up."""
+            """For the gather's flat rays ``low:high``: the span ``first:last`` of the first
+            bounce's ``near`` that follows some of them, and A (last - first, C) where each of
+            those landed, read from the last bounce up."""
             spans = []
             for bounce in self.bounces:
                 first, last = np.searchsorted(bounce.near, [low, high])
