@@ -9,6 +9,7 @@ from typing import Callable
 import numpy as np
 import pytest
 
+from bench.pathtrace import path_traced
 from core import PointLight, Scene, bake
 from core.mesh.discretize import discretize
 from core.solve import gather as final_gather
@@ -279,8 +280,6 @@ def test_a_point_under_a_plate_two_millimetres_above_a_lit_floor_stays_as_dark_a
     (``NEAR_BOUNCES``) while they land close, they leave at most rho^NEAR_BOUNCES of the brightest
     patch's radiosity, itself at most rho E F / (1 - rho), F the exact form factor to the lamp from
     the point that sees it most (the plate's top centre)."""
-    from bench.pathtrace import path_traced
-
     gap, half, reflectance = 0.002, 0.3, 0.5
     floor = grid([0, 0, 0], [4, 0, 0], [0, 4, 0], 2)
     below = quad([2 - half, 2 - half, gap], [0, 2 * half, 0], [2 * half, 0, 0])

@@ -40,6 +40,12 @@ def test_gauss_seidel_needs_fewer_sweeps_than_jacobi(system):
     assert seidel_stats["iterations"] < jacobi_stats["iterations"]
 
 
+def columns_of(matrix: np.ndarray):
+    """``progressive``'s ``columns`` over an explicit matrix: the columns of the sources asked
+    for, each captured whole."""
+    return lambda sources, _tick: (list(matrix[:, sources].T), np.ones(len(sources)))
+
+
 @pytest.mark.parametrize("ambient", [False, True])
 def test_progressive_refinement_agrees_with_a_direct_solve(system, ambient):
     """Shooting until the undistributed light is below 1e-9 of all the light: the remaining
@@ -47,8 +53,8 @@ def test_progressive_refinement_agrees_with_a_direct_solve(system, ambient):
     matrix, reflectance, emission = system
     truth = exact(*system)
     areas = np.ones(len(matrix))  # the solver only uses areas to rank shooters and weigh energy
-    radiosity, _, stats = progressive.progressive(lambda sources, _tick: (list(matrix[:, sources].T), np.ones(len(sources))), areas, reflectance, emission,
-                                              tolerance=1e-9, ambient=ambient)
+    radiosity, _, stats = progressive.progressive(columns_of(matrix), areas, reflectance, emission, tolerance=1e-9,
+                                                  ambient=ambient)
     assert stats["unshot_fraction"] <= 1e-9
     np.testing.assert_allclose(radiosity, truth, rtol=1e-7, atol=1e-7 * np.abs(truth).max())
 
@@ -60,8 +66,8 @@ def test_progressive_refinement_shoots_passive_receivers_too(system):
     probes = matrix[:3] * 0.5  # any rows of form factors will do
     probe_reflectance, probe_emission = np.full((3, 3), 0.4), np.full((3, 3), 0.1)
     columns = np.concatenate([matrix, probes])
-    _, passive, _ = progressive.progressive(lambda sources, _tick: (list(columns[:, sources].T), np.ones(len(sources))), np.ones(len(matrix)), reflectance,
-                                        emission, probe_reflectance, probe_emission, tolerance=1e-10, ambient=False)
+    _, passive, _ = progressive.progressive(columns_of(columns), np.ones(len(matrix)), reflectance, emission,
+                                            probe_reflectance, probe_emission, tolerance=1e-10, ambient=False)
     np.testing.assert_allclose(passive, probe_emission + probe_reflectance * (probes @ truth), rtol=1e-7)
 
 
