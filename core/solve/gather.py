@@ -315,9 +315,8 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
         for level in range(depth):
             close = np.flatnonzero((patch >= 0) & (np.linalg.norm(landed - origins, axis=1)
                                                    < (reach if level == 0 else deep_reach)[np.maximum(patch, 0)]))
-            bounce, origins, patch, landed = _bounce(mesh, visibility, surfaces, emitters, lights, landed[close],
-                                                     patch[close], followers[level], rng,
-                                                     start + level * len(points))
+            bounce, origins, patch, landed = _bounce(surfaces, emitters, lights, landed[close], patch[close],
+                                                     followers[level], rng, start + level * len(points))
             bounces.append(replace(bounce, near=(close + offset).astype(index_type)))
             offset = 0  # the deeper bounces' are moved on when the blocks are joined
         return patches, bounces
@@ -335,16 +334,16 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
     return GatherHits(patches, tuple(bounces))
 
 
-def _bounce(mesh: Discretization, visibility: Visibility, surfaces: Surfaces, emitters: Emitters,
-            lights: DirectLighting | None, at: np.ndarray, patches: np.ndarray, rays: int,
-            rng: np.random.Generator, first: int) -> tuple[Bounce, np.ndarray, np.ndarray, np.ndarray]:
+def _bounce(surfaces: Surfaces, emitters: Emitters, lights: DirectLighting | None, at: np.ndarray,
+            patches: np.ndarray, rays: int, rng: np.random.Generator,
+            first: int) -> tuple[Bounce, np.ndarray, np.ndarray, np.ndarray]:
     """The ``Bounce`` (its ``near`` left empty) of ``rays`` (a perfect square) stratified
     cosine-distributed rays from each of the points ``at`` (m, 3) on ``patches`` (m,), on the side
     that faces back along the ray that landed there; and the rays' origins (m k, 3), the patch each
     stopped at (m k,: -1 none, -2 out of the scene) and where (m k, 3). ``first``: the lights'
     random stream (``DirectLighting.light_samples_of_block``)."""
-    facing = mesh.patch_normals[patches]
-    lamp, lamp_weight = emitters.sample(visibility, at, facing, rng, rays)
+    facing = surfaces.mesh.patch_normals[patches]
+    lamp, lamp_weight = emitters.sample(surfaces.visibility, at, facing, rng, rays)
     origins, normals = np.repeat(at, rays, axis=0), np.repeat(facing, rays, axis=0)
     met, landed, share = np.zeros(0, np.int64), np.zeros((0, 3)), np.ones(0)
     if len(at):
