@@ -48,8 +48,13 @@ def _buried(points: np.ndarray, normals: np.ndarray, visibility: Visibility) -> 
     """(P, S) bool: whether every probe ray from points (P, S, 3) on surfaces facing normals
     (P, 3) first meets the back of a triangle. The ray along the normal goes first, the ring only
     from the points where it met a back (elsewhere the point is free whatever the ring meets):
-    in a room most points see a front along their normal, so most of the ring is never cast."""
+    in a room most points see a front along their normal, so most of the ring is never cast.
+    Where every triangle is two-sided (the add-on's default) or has the whole scene in front of
+    it (``Visibility.enclosing``: no ray from a surface meets its back), no point is buried: none
+    is cast."""
     patches, samples = points.shape[:2]
+    if (visibility.two_sided | visibility.enclosing).all():
+        return np.zeros((patches, samples), dtype=bool)
     origins = points.reshape(-1, 3)
     lift = normals[np.arange(patches * samples) // samples]  # not np.repeat, which holds the GIL
     candidates = np.flatnonzero(_meets_a_back(origins, lift, lift, visibility))

@@ -153,3 +153,30 @@ def test_burial_probes_agree_with_casting_every_ring_ray():
     expected = back.reshape(len(points), samples, probes).all(axis=2)
     assert expected.sum() > 50 and (~expected).sum() > 50  # both verdicts occur
     np.testing.assert_array_equal(receivers._buried(points, normals, visibility), expected)
+
+
+def test_where_no_ray_can_meet_a_back_no_patch_is_buried_and_no_probe_is_cast():
+    """The block on the floor of the test above with every face two-sided (the block's inside is
+    a surface like any other), and a one-sided room (every wall has the whole scene in front of
+    it) around a two-sided card: every patch receives at its centroid, and the burial test casts
+    no ray. The block one-sided on the floor casts them (16 along the normals, one per test point)."""
+    floor = quad([-1, -1, 0], [2, 0, 0], [0, 2, 0])
+    vertices, triangles = box(0.5)
+    on_floor = merge(floor, (vertices + [0.2, 0.2, 0.0], triangles[:, ::-1]))
+    in_room = merge(box(), quad([0.2, 0.5, 0.2], [0.6, 0, 0], [0, 0, 0.6]))
+    cases = {"two-sided block": (on_floor, np.ones(len(on_floor[1]), bool)),
+             "one-sided room": (in_room, np.arange(len(in_room[1])) >= 12),
+             "one-sided block": (on_floor, np.zeros(len(on_floor[1]), bool))}
+    casts = {}
+    for name, ((vertices, triangles), two_sided) in cases.items():
+        count = len(triangles)
+        scene = Scene(vertices, triangles, np.full((count, 3), 0.5), np.zeros((count, 3)), two_sided=two_sided)
+        mesh = discretize(scene, 0.7, cut_contacts=False)
+        visibility = FormFactorEngine(mesh).visibility
+        before = visibility.rays_cast
+        points = receiving_points(mesh, visibility)
+        casts[name] = visibility.rays_cast - before
+        if name != "one-sided block":
+            np.testing.assert_array_equal(points, mesh.patch_centroids)
+    assert casts["two-sided block"] == casts["one-sided room"] == 0
+    assert casts["one-sided block"] >= 16 * mesh.front_patch_count
