@@ -104,7 +104,10 @@ def panels(scene: Scene, panel_size: float,
     resting = np.zeros(len(positions), dtype=bool)
     settled = 0.0
     while True:
-        source, target, hopeless = _collapses(alive, positions, normals[owner], fixed | resting, limit[owner], flat)
+        # a collapse changes only its source's triangles: those of the vertices awake
+        awake = np.flatnonzero((~(fixed | resting))[alive].any(axis=1))
+        source, target, hopeless = _collapses(alive[awake], positions, normals[owner[awake]], fixed | resting,
+                                              limit[owner[awake]], flat)
         resting[hopeless] = True
         settled = max(settled, float((resting | fixed).mean()))  # resting vertices may wake again
         report(settled)
@@ -124,9 +127,10 @@ def panels(scene: Scene, panel_size: float,
     # the degenerate triangles stay as they are, so their corners still find their neighbours
     panel_vertices = np.concatenate([alive, local[zero_area]])
     panel_source = np.concatenate([owner, np.flatnonzero(zero_area)])
-    corner_panel, corner_weights = _locate(local, positions, panel_vertices, region, panel_source)
-    triangle_panel = np.full(len(corners), -1)
     unchanged = (alive == local[owner]).all(axis=1)
+    corner_panel, corner_weights = _locate(local, positions, panel_vertices, region, panel_source,
+                                           np.flatnonzero(~unchanged))
+    triangle_panel = np.full(len(corners), -1)
     triangle_panel[owner[unchanged]] = np.flatnonzero(unchanged)
     triangle_panel[zero_area] = len(alive) + np.arange(zero_area.sum())
     input_corner = np.empty(len(positions), dtype=np.int64)
@@ -165,13 +169,15 @@ def _regions(scene: Scene, normals, weld, zero_area) -> np.ndarray:
 def _collapses(triangles: np.ndarray, positions: np.ndarray, normals: np.ndarray, fixed: np.ndarray,
                limit: np.ndarray, flat: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One pass: (sources, targets) of half-edge collapses whose stars do not overlap, and the
-    vertices (not ``fixed``) that have no valid collapse; no changed triangle may have an edge
-    longer than its ``limit`` (per triangle), nor lie further than FLATNESS of its size from
-    the vertex it loses; an outline vertex goes only where its outline is straight within
-    ``flat``."""
+    vertices of ``triangles`` (not ``fixed``) that have no valid collapse; no changed triangle may
+    have an edge longer than its ``limit`` (per triangle), nor lie further than FLATNESS of its
+    size from the vertex it loses; an outline vertex goes only where its outline is straight
+    within ``flat``. ``triangles`` need only hold every triangle of the vertices not ``fixed``."""
     empty = np.zeros(0, dtype=np.int64)
     vertex_count = len(positions)
     count = len(triangles)
+    star_size = np.bincount(triangles.ravel(), minlength=vertex_count)
+    free = np.flatnonzero(~fixed & (star_size > 0))
     interior, on_outline, boundary = _vertex_kinds(triangles, positions, fixed, flat)
     # candidate half-edges u -> v: from an interior vertex to any neighbour, from a straight
     # outline vertex to its outline neighbours
@@ -185,9 +191,8 @@ def _collapses(triangles: np.ndarray, positions: np.ndarray, normals: np.ndarray
     pair_key = np.unique(source * vertex_count + target)
     source, target = pair_key // vertex_count, pair_key % vertex_count
     if len(source) == 0:
-        return empty, empty, empty
+        return empty, empty, free
     # the star of each candidate's source: its triangles, through a vertex -> triangle listing
-    star_size = np.bincount(triangles.ravel(), minlength=vertex_count)
     corner_triangle = np.repeat(np.arange(count), 3)
     order = np.argsort(triangles.ravel(), kind="stable")
     star_start = np.concatenate([[0], np.cumsum(star_size)])
@@ -207,7 +212,7 @@ def _collapses(triangles: np.ndarray, positions: np.ndarray, normals: np.ndarray
     # every changed triangle good, and one left at least (a region never collapses away)
     valid = (np.bincount(candidate, weights=~good, minlength=len(source)) == 0) \
         & (np.bincount(candidate, weights=~gone, minlength=len(source)) > 0)
-    hopeless = np.setdiff1d(source, source[valid])
+    hopeless = np.setdiff1d(free, source[valid])
     if not valid.any():
         return empty, empty, hopeless
     # shortest valid edge per source, then those whose stars no better candidate touches; equal
@@ -267,9 +272,11 @@ def _vertex_kinds(triangles: np.ndarray, positions: np.ndarray, fixed: np.ndarra
     return interior, on_outline, boundary
 
 
-def _locate(local, positions, panel_vertices, region, panel_source):
+def _locate(local, positions, panel_vertices, region, panel_source, changed):
     """The panel around each input corner and its barycentric weights there: a corner at a panel
-    vertex takes that vertex; one at a removed vertex, the panel of its region containing it."""
+    vertex takes that vertex; one at a removed vertex, the panel of its region containing it, one
+    of the panels ``changed`` (indices: those that are not an input triangle), as every triangle
+    around a removed vertex was."""
     flat = local.ravel()
     # each vertex (of a region): any panel with it as a corner, weight 1 there
     vertex_panel = np.full(len(positions), -1)
@@ -282,13 +289,14 @@ def _locate(local, positions, panel_vertices, region, panel_source):
         points = positions[removed]
         vertex_region = np.zeros(len(positions), dtype=np.int64)
         vertex_region[flat] = np.repeat(region, 3)
-        panel_corners = positions[panel_vertices]
+        panel_corners = positions[panel_vertices[changed]]
         pad = FLATNESS * longest_edges(panel_corners)[:, None]  # removed vertices lie within it of a panel
-        found_point, found_panel = spatial.points_in_boxes(points, panel_corners.min(axis=1) - pad,
-                                                           panel_corners.max(axis=1) + pad)
+        found_point, found = spatial.points_in_boxes(points, panel_corners.min(axis=1) - pad,
+                                                     panel_corners.max(axis=1) + pad)
+        found_panel = changed[found]
         same = region[panel_source[found_panel]] == vertex_region[removed][found_point]
-        found_point, found_panel = found_point[same], found_panel[same]
-        weights = barycentric(points[found_point], panel_corners[found_panel])
+        found_point, found, found_panel = found_point[same], found[same], found_panel[same]
+        weights = barycentric(points[found_point], panel_corners[found])
         order = np.lexsort((-weights.min(axis=1), found_point))  # per point, the panel it is most inside
         best = order[np.unique(found_point[order], return_index=True)[1]]
         if len(best) != len(removed):

@@ -10,7 +10,7 @@ from core import Scene, bake
 from core.transport.analytic import point_to_triangle
 from core.mesh.discretize import discretize
 from core.util.geometry import areas_and_normals, barycentric_grid
-from core.mesh.panels import panels
+from core.mesh.panels import _collapses, panels
 from tests.core.scenes import box, grid, merge, quad, uniform
 
 # The unit cube's faces as (corner, u, v), facing inwards (u x v), in box()'s order.
@@ -207,3 +207,22 @@ def test_a_triangle_left_whole_keeps_its_area_mean_beside_merged_ones():
         up = np.tile([0.0, 0.0, 1.0], (len(points), 1))
         factors = sum(point_to_triangle(points, up, np.broadcast_to(e, (len(points), 3, 3))) for e in emitter_corners)
         np.testing.assert_allclose(result.triangle_radiosity[t], rho * factors.mean(), rtol=1e-2)
+
+
+def test_a_pass_of_collapses_needs_only_the_triangles_of_the_vertices_not_fixed():
+    """``panels`` hands each pass of collapses only the triangles around the vertices still
+    awake: on the L-shaped floor and wall, a third of the vertices fixed at random, the pass
+    finds the same collapses and the same vertices without one from those triangles as from
+    the whole mesh (every vertex is its own here: no welding, regions or limits in the way)."""
+    scene = l_shaped_floor_and_wall()
+    triangles, positions = scene.triangles, scene.vertices
+    normals = areas_and_normals(positions[triangles])[1]
+    fixed = np.random.default_rng(3).random(len(positions)) < 1 / 3
+    limit = np.full(len(triangles), 0.5)
+    whole = _collapses(triangles, positions, normals, fixed, limit, 1e-6)
+    awake = np.flatnonzero((~fixed)[triangles].any(axis=1))
+    assert 0 < len(awake) < len(triangles)
+    part = _collapses(triangles[awake], positions, normals[awake], fixed, limit[awake], 1e-6)
+    assert len(whole[0]) > 10 and len(whole[2]) > 10  # collapses, and vertices without one
+    for found, expected in zip(part, whole):
+        np.testing.assert_array_equal(found, expected)
