@@ -92,19 +92,20 @@ def test_a_resumed_solve_matches_a_fresh_solve_of_the_refined_patches(solver, mo
 def test_a_patch_under_a_block_receives_where_it_can_be_seen():
     """A closed box standing on a floor covers part of some floor patches (the floor not cut
     along the box's footprint, as happens when the box floats a hair above it): exactly those
-    whose test points (centroids of their 4 x 4 strata) are partly under the box receive at one
-    of their test points outside the box's footprint; every other patch at its centroid."""
+    whose test points (the centroids of their strata, ``receivers.SAMPLE_DIVISIONS`` per side) are
+    partly under the box receive at one of their test points outside the box's footprint; every
+    other patch at its centroid."""
     floor = quad([-1, -1, 0], [2, 0, 0], [0, 2, 0])
     vertices, triangles = box(0.5)  # [0, 0.5]^3 facing inwards: flip it to face out
     block = (vertices + [0.2, 0.2, 0.0], triangles[:, ::-1])
     vertices, triangles = merge(floor, block)
     count = len(triangles)
     scene = Scene(vertices, triangles, np.full((count, 3), 0.5), np.zeros((count, 3)))
-    mesh = discretize(scene, 0.7, cut_contacts=False)
+    mesh = discretize(scene, 0.3, cut_contacts=False)
     points = receiving_points(mesh, FormFactorEngine(mesh).visibility)
     on_floor = np.flatnonzero(mesh.patch_triangle < 2)
     inside = lambda p: (p[..., 0] > 0.2) & (p[..., 0] < 0.7) & (p[..., 1] > 0.2) & (p[..., 1] < 0.7)
-    weights, cells = barycentric_grid(4)
+    weights, cells = barycentric_grid(receivers.SAMPLE_DIVISIONS)
     tests = np.einsum("sb,pbx->psx", weights[cells].mean(axis=1), mesh.patch_corners)
     under = inside(tests)
     partly = np.zeros(mesh.patch_count, dtype=bool)
@@ -159,7 +160,7 @@ def test_where_no_ray_can_meet_a_back_no_patch_is_buried_and_no_probe_is_cast():
     """The block on the floor of the test above with every face two-sided (the block's inside is
     a surface like any other), and a one-sided room (every wall has the whole scene in front of
     it) around a two-sided card: every patch receives at its centroid, and the burial test casts
-    no ray. The block one-sided on the floor casts them (16 along the normals, one per test point)."""
+    no ray. The block one-sided on the floor casts them (one along the normal per test point)."""
     floor = quad([-1, -1, 0], [2, 0, 0], [0, 2, 0])
     vertices, triangles = box(0.5)
     on_floor = merge(floor, (vertices + [0.2, 0.2, 0.0], triangles[:, ::-1]))
@@ -179,4 +180,4 @@ def test_where_no_ray_can_meet_a_back_no_patch_is_buried_and_no_probe_is_cast():
         if name != "one-sided block":
             np.testing.assert_array_equal(points, mesh.patch_centroids)
     assert casts["two-sided block"] == casts["one-sided room"] == 0
-    assert casts["one-sided block"] >= 16 * mesh.front_patch_count
+    assert casts["one-sided block"] >= receivers.SAMPLE_DIVISIONS ** 2 * mesh.front_patch_count
