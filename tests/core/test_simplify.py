@@ -213,7 +213,7 @@ def test_a_pass_of_collapses_needs_only_the_triangles_of_the_vertices_not_fixed(
     """``panels`` hands each pass of collapses only the triangles around the vertices still
     awake: on the L-shaped floor and wall, a third of the vertices fixed at random, the pass
     finds the same collapses and the same vertices without one from those triangles as from
-    the whole mesh (every vertex is its own here: no welding, regions or limits in the way)."""
+    the whole mesh."""
     scene = l_shaped_floor_and_wall()
     triangles, positions = scene.triangles, scene.vertices
     normals = areas_and_normals(positions[triangles])[1]
