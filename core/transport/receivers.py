@@ -22,7 +22,7 @@ from ..util.geometry import barycentric_grid, tangent_frames
 
 # The patch is tested at the centroids of its SAMPLE_DIVISIONS x SAMPLE_DIVISIONS strata. Contact
 # lines cut the larger patches (``mesh.contacts``), so those left partly buried are small, and 2 x 2
-# points find them as well as 4 x 4 did, in a third of the time (docs/notes/experiments.md,
+# points find them as well as 4 x 4 did, in a quarter of the time (docs/notes/experiments.md,
 # "Sponza's noise, the top arches' bias, the final gather's rays").
 SAMPLE_DIVISIONS = 2
 RING = 6  # probe directions around the normal, at PROBE_ANGLE from it
