@@ -157,11 +157,15 @@ def _cut(corners: np.ndarray, target: np.ndarray, start: np.ndarray, end: np.nda
         finished.append((polygons[cutting:], sizes[cutting:], slot[cutting:]))
         polygons, sizes, slot = polygons[:cutting], sizes[:cutting], slot[:cutting]
         line = first_line[slot] + number
-        positive, negative, split = _split(polygons, sizes, start[line], across[line], tolerance[target[line]])
         # only the pieces the contact segment itself runs through: a line across the whole
         # triangle would cut every piece, L lines into O(L^2) pieces
-        split &= _run_inside(polygons, sizes, normals[target[line]], start[line], end[line],
-                             tolerance[target[line]]) > tolerance[target[line]]
+        crossed = np.flatnonzero(_run_inside(polygons, sizes, normals[target[line]], start[line], end[line],
+                                             tolerance[target[line]]) > tolerance[target[line]])
+        line = line[crossed]
+        positive, negative, cuts = _split(polygons[crossed], sizes[crossed], start[line], across[line],
+                                          tolerance[target[line]])
+        split = np.zeros(len(polygons), dtype=bool)
+        split[crossed] = cuts
         width = max(polygons.shape[1], positive[0].shape[1], negative[0].shape[1])
         copies = np.where(split, 2, 1)
         at = np.cumsum(copies) - copies  # each polygon's first place in the new list
@@ -170,8 +174,8 @@ def _cut(corners: np.ndarray, target: np.ndarray, start: np.ndarray, end: np.nda
         new_sizes = np.repeat(sizes, copies)
         for place, (points, count) in ((at[split], positive), (at[split] + 1, negative)):
             new_polygons[place] = 0.0
-            new_polygons[place, : points.shape[1]] = points[split]
-            new_sizes[place] = count[split]
+            new_polygons[place, : points.shape[1]] = points[cuts]
+            new_sizes[place] = count[cuts]
         polygons, sizes, slot = new_polygons, new_sizes, np.repeat(slot, copies)
     finished.append((polygons, sizes, slot))
     sizes = np.concatenate([part[1] for part in finished])
