@@ -172,24 +172,28 @@ class FormFactorEngine:
         order = np.argsort(coordinates, axis=1, kind="stable")
         return order, np.take_along_axis(coordinates, order, axis=1)
 
+    def _slabs(self, low: np.ndarray, high: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(3, k) each: where the receivers within each box's sides (corners (k, 3)) along each
+        axis start and end in that axis's order (``_shot_receivers_by_axis``)."""
+        by_axis = self._shot_receivers_by_axis[1]
+        return (np.stack([np.searchsorted(by_axis[axis], low[:, axis]) for axis in range(3)]),
+                np.stack([np.searchsorted(by_axis[axis], high[:, axis], side="right") for axis in range(3)]))
+
     def _few_inside(self, low: np.ndarray, high: np.ndarray) -> np.ndarray:
         """(k,) bool: whether at most REACH_SHARE of the receivers can lie in each box (corners
         (k, 3)), counted along the axis where the fewest lie within its sides; an unbounded box
         holds them all."""
-        by_axis = self._shot_receivers_by_axis[1]
-        within = np.min([np.searchsorted(by_axis[axis], high[:, axis], side="right")
-                         - np.searchsorted(by_axis[axis], low[:, axis]) for axis in range(3)], axis=0)
-        return np.isfinite(low).all(axis=1) & (within <= REACH_SHARE * by_axis.shape[1])
+        first, last = self._slabs(low, high)
+        within = (last - first).min(axis=0)
+        return np.isfinite(low).all(axis=1) & (within <= REACH_SHARE * len(self._shot_receivers[0]))
 
     def _receivers_within(self, low: np.ndarray, high: np.ndarray) -> np.ndarray:
         """(m,) sorted: the receivers whose coordinate along one axis, the one where the fewest
         do, lies within ``low``..``high`` (3,): a superset of those in that box, so that a batch
         of shots searches its room's slab, not the whole scene."""
-        order, by_axis = self._shot_receivers_by_axis
-        first = np.array([np.searchsorted(by_axis[axis], low[axis]) for axis in range(3)])
-        last = np.array([np.searchsorted(by_axis[axis], high[axis], side="right") for axis in range(3)])
+        first, last = (ends[:, 0] for ends in self._slabs(low[None], high[None]))
         axis = int(np.argmin(last - first))
-        return np.sort(order[axis, first[axis]:last[axis]])
+        return np.sort(self._shot_receivers_by_axis[0][axis, first[axis]:last[axis]])
 
     @property
     def rays_cast(self) -> int:
