@@ -59,25 +59,31 @@ def _contact_lines(corners: np.ndarray, degenerate: np.ndarray,
         over[np.abs(over) <= CONTACT_TOLERANCE * size[target][:, None]] = 0
         return over
 
-    def meeting(first: np.ndarray, second: np.ndarray) -> np.ndarray:
-        """Whether the other triangle crosses the target's plane (or touches it), not parallel to it."""
+    def section(target: np.ndarray, other: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Where the other triangle meets the target's plane (``_plane_sections``): (k, 3) start and
+        end, and (k,) bool, whether that segment runs inside the target."""
+        start, end, found = _plane_sections(corners[other], heights(target, other))
+        inside = np.flatnonzero(found)
+        found[inside] = _length_inside(corners[target[inside]], normals[target[inside]], start[inside], end[inside],
+                                       CONTACT_TOLERANCE * size[target[inside]]) > 0
+        return start, end, found
+
+    def cuts(first: np.ndarray, second: np.ndarray) -> np.ndarray:
+        """Whether the other triangle, not parallel to the target, meets the target's plane inside it
+        (run on the threads: most pairs fail the cheaper tests first)."""
         target, other = targets[first], cutters[second]
         result = np.abs((normals[target] * normals[other]).sum(axis=1)) < 1 - PARALLEL
         crossing = np.flatnonzero(result)
         over = heights(target[crossing], other[crossing])
         result[crossing] = (over.min(axis=1) <= 0) & (over.max(axis=1) >= 0)
+        meeting = np.flatnonzero(result)
+        result[meeting] = section(target[meeting], other[meeting])[2]
         return result
 
-    first, second = overlapping_boxes(low[targets], high[targets], low[cutters], high[cutters], meeting)
-    target, other = targets[first], cutters[second]
-    heartbeat()
-    start, end, found = _plane_sections(corners[other], heights(target, other))
-    heartbeat()
-    target, start, end = target[found], start[found], end[found]
-    inside = np.flatnonzero(_length_inside(corners[target], normals[target], start, end,
-                                           CONTACT_TOLERANCE * size[target]) > 0)
-    inside = inside[np.argsort(target[inside], kind="stable")]
-    return target[inside], start[inside], end[inside]
+    first, second = overlapping_boxes(low[targets], high[targets], low[cutters], high[cutters], cuts)
+    target, other = targets[first], cutters[second]  # sorted by target, as the pairs are
+    start, end, _ = section(target, other)
+    return target, start, end
 
 
 def _plane_sections(triangles: np.ndarray, heights: np.ndarray):

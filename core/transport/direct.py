@@ -270,7 +270,9 @@ class DirectLighting:
         if self.sky.any() or self.environment is not None:
             rotation = self._rotation(first, 0, len(points))
             directions, open_sky = self._open_sky(points, normals, rotation, sky_rays)
-            sky = self._sky(directions, open_sky)
+            sky = np.zeros_like(result)
+            each = self._each_direction(directions, open_sky)
+            sky[:, len(self.lights):] = _joined([along.mean(axis=1) for along in each])
             partly = np.flatnonzero((open_sky > 0).any(axis=1) & (open_sky < 1).any(axis=1))
             if outlined and len(partly):
                 outline = _outline(open_sky[partly])
@@ -295,33 +297,27 @@ class DirectLighting:
         point, stratum = np.nonzero(outline)
         if len(point):
             cells = (_strata(OUTLINE_SPLIT * OUTLINE_SPLIT) - 0.5 / OUTLINE_SPLIT) / side  # (k, 2) the cells' corners
-            square = (_strata(strata)[stratum][:, None] - 0.5 / side + cells
-                      + (rotation + shift / (OUTLINE_SPLIT * side))[point][:, None]) % 1.0
-            angle = 2 * math.pi * square[..., 1]
+            square = (_strata(strata)[stratum] - 0.5 / side + (rotation + shift / (OUTLINE_SPLIT * side))[point]
+                      )[:, None] + cells
+            square -= np.floor(square)  # modulo 1
+            angle = (2 * math.pi * square[..., 1]).astype(np.float32)  # as the directions are
             fine = _cosine_directions(square[..., 0], np.cos(angle), np.sin(angle), _frames(normals)[point])
-            shares[point, stratum] = self._each_direction(
-                fine, self._unblocked(points[point], normals[point], fine, None)).mean(axis=1)
-        return shares.mean(axis=1)
+            fine_shares = self._each_direction(fine, self._unblocked(points[point], normals[point], fine, None))
+            for share, fine_share in zip(shares, fine_shares):
+                share[point, stratum] = fine_share.mean(axis=1)
+        return _joined([share.mean(axis=1) for share in shares])
 
-    def _each_direction(self, directions: np.ndarray, through: np.ndarray) -> np.ndarray:
-        """(m, K, E, 3) the sky's and the environment's light per unit (E of them, the sources after
-        the lights) along each of the cosine-distributed ``directions`` (m, K, 3), from what gets
-        ``through`` (m, K) along it."""
+    def _each_direction(self, directions: np.ndarray, through: np.ndarray) -> list[np.ndarray]:
+        """The sky's and the environment's light per unit (E of them, the sources after the lights)
+        along each of the cosine-distributed ``directions`` (m, K, 3), from what gets ``through``
+        (m, K) along it: the sky's (m, K), alike in every channel, and the environment's (m, K, 3)."""
         through = through.astype(np.float64)
-        columns = []
+        lights = []
         if self.sky.any():
-            columns.append(np.broadcast_to(through[..., None], (*through.shape, 3)))
+            lights.append(through)
         if self.environment is not None:
-            columns.append(through[..., None] * self.environment.at(directions))
-        return np.stack(columns, axis=2)
-
-    def _sky(self, directions: np.ndarray, open_sky: np.ndarray) -> np.ndarray:
-        """(m, S, 3) the sky and the environment per unit, from the cosine-distributed
-        ``directions`` (m, K, 3) and what gets through along each (m, K): the mean of
-        ``_each_direction``."""
-        result = np.zeros((len(directions), self.source_count, 3))
-        result[:, len(self.lights):] = self._each_direction(directions, open_sky).mean(axis=1)
-        return result
+            lights.append(through[..., None] * self.environment.at(directions))
+        return lights
 
     def _area_lights(self, points, normals) -> np.ndarray:
         """(m, S, 3) area lights at points, per unit of power: kernel-weighted shadow rays to
@@ -361,19 +357,19 @@ class DirectLighting:
         """(m, s) what gets through along each of the s rays from each point (m, 3) along
         ``offsets`` (m, s, 3): whether no surface blocks it, or the share of its light no surface
         stops where some let light through (``Visibility.blocked_unit``); ``reach`` 1.0 up to the
-        offsets' ends, None to infinity. The rays start RAY_EPSILON off the point's surface, a
-        point's rays from one start computed once."""
+        offsets' ends, None to infinity (the offsets then unit directions). The rays start
+        RAY_EPSILON off the point's surface, a point's rays from one start computed once."""
         visibility = self.visibility
         shape = offsets.shape[:2]
         if offsets.size == 0:
             return np.ones(shape)
         starts = visibility.to_unit(points) + RAY_EPSILON * normals  # (m, 3)
-        directions = np.asarray(offsets, np.float32) * np.float32(visibility.scale)
-        lengths = np.linalg.norm(directions, axis=2)
         if reach is None:  # beyond the scene: every surface is within 1 of the unit space's centre
-            directions /= np.maximum(lengths, np.finfo(np.float32).tiny)[..., None]
+            directions = np.asarray(offsets, np.float32)
             ray_reach = np.linalg.norm(starts, axis=1)[:, None] + 2.0
         else:  # stop RAY_EPSILON short of the end, along the ray
+            directions = np.asarray(offsets, np.float32) * np.float32(visibility.scale)
+            lengths = np.linalg.norm(directions, axis=2)
             ray_reach = reach - RAY_EPSILON / np.maximum(lengths, np.finfo(np.float32).tiny)
         ray_starts, ray_reaches = np.empty((*shape, 3), np.float32), np.empty(shape, np.float32)
         ray_starts[:], ray_reaches[:] = starts[:, None], ray_reach
@@ -396,8 +392,9 @@ def _cosine_directions(u: np.ndarray, cosine: np.ndarray, sine: np.ndarray, fram
     points (m, k) of the unit square by Malley's method: radius sqrt(u) on the disc, at the angle
     whose ``cosine`` and ``sine`` are given, lifted to the hemisphere."""
     radius = np.sqrt(u)
-    local = np.stack([radius * cosine, radius * sine, np.sqrt(1 - u)], axis=-1)  # (m, k, 3)
-    return local.astype(np.float32) @ frames  # float32, as the rays are traced
+    local = np.empty((*np.shape(u), 3), np.float32)  # (m, k, 3), float32 as the rays are traced
+    local[..., 0], local[..., 1], local[..., 2] = radius * cosine, radius * sine, np.sqrt(1 - u)
+    return local @ frames
 
 
 def _outline(through: np.ndarray) -> np.ndarray:
@@ -415,6 +412,12 @@ def _outline(through: np.ndarray) -> np.ndarray:
         for along in (-1, 0, 1):
             ring |= np.roll(differs, (across, along), axis=(1, 2))
     return ring.reshape(through.shape)
+
+
+def _joined(columns: list[np.ndarray]) -> np.ndarray:
+    """(m, E, 3) the sky's (m,) and the environment's (m, 3) light (``_each_direction``'s, reduced)."""
+    return np.stack([np.broadcast_to(column[:, None], (len(column), 3)) if column.ndim == 1 else column
+                     for column in columns], axis=1)
 
 
 def _strata(count: int) -> np.ndarray:

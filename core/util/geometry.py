@@ -119,11 +119,13 @@ def cosine_directions(normals: np.ndarray, uv: np.ndarray) -> np.ndarray:
     """(n, ..., 3) unit directions about unit ``normals`` (n, 3) from points ``uv`` (n, ..., 2) of
     the unit square, distributed as cos(theta) / pi when uv is uniform (Malley's method: a uniform
     point of the unit disc, r = sqrt(u), phi = 2 pi v, lifted to the hemisphere); each normal's
-    frame is built once for all its points."""
+    frame is built once for all its points. The angle's cosine and sine are taken in float32 (to
+    about 3e-7, as the rays are traced), several times faster than in float64."""
+    angle = (2 * np.pi * uv[..., 1]).astype(np.float32)
     radius = np.sqrt(uv[..., 0])
-    angle = 2 * np.pi * uv[..., 1]
-    frame = (len(normals),) + (1,) * (uv.ndim - 2) + (3,)
-    tangent, bitangent = (axis.reshape(frame) for axis in tangent_frames(normals))
-    lift = np.sqrt(np.maximum(1.0 - uv[..., 0], 0.0))
-    return ((radius * np.cos(angle))[..., None] * tangent + (radius * np.sin(angle))[..., None] * bitangent
-            + lift[..., None] * normals.reshape(frame))
+    local = np.empty((*uv.shape[:-1], 3))  # (n, ..., 3) in the frame (tangent, bitangent, normal)
+    local[..., 0], local[..., 1] = radius * np.cos(angle), radius * np.sin(angle)
+    local[..., 2] = np.sqrt(np.maximum(1.0 - uv[..., 0], 0.0))
+    frames = np.stack(tangent_frames(normals) + (normals,), axis=1)  # (n, 3, 3), rows the axes
+    per_normal = int(np.prod(uv.shape[1:-1]))
+    return (local.reshape(len(normals), per_normal, 3) @ frames).reshape(local.shape)
