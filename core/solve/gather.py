@@ -237,7 +237,9 @@ class GatherHits:
                 bounce, (first, last) = self.bounces[depth], spans[depth]
                 met = bounce.patches[first:last]
                 share = bounce.share[first:last].astype(np.float64)
-                values = second[met] - (1 - share)[..., None] * emitted[met]
+                values = second[met]
+                shining = np.nonzero(share < 1)  # rays that met an emitter (elsewhere the share is 1)
+                values[shining] -= (1 - share[shining])[:, None] * emitted[met[shining]]
                 if arriving is not None and len(arriving):  # the rays followed by the next bounce
                     deeper, (after, until) = self.bounces[depth + 1], spans[depth + 1]
                     followed = deeper.near[after:until] - first * met.shape[1]
