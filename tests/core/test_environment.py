@@ -3,13 +3,14 @@ above the horizon and black below sees the half-sky, whose cosine-weighted share
 tilted by alpha from the horizontal is (1 + cos alpha) / 2 (the sky view factor of a tilted
 plane); a uniform image lights as the uniform sky of its value."""
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
 from core import Environment, Scene, bake
-from tests.core.scenes import quad
+from tests.core.scenes import lit_room, quad
 
 RHO, SKY = 0.5, 2.0
 
@@ -38,10 +39,20 @@ def test_a_tilted_plane_sees_the_half_sky_by_its_view_factor(alpha_degrees):
     np.testing.assert_allclose(colours, expected, atol=0.01 * RHO * SKY)
 
 
-def test_a_uniform_image_lights_as_the_uniform_sky():
+@pytest.mark.parametrize("scene", ["plane", "room"])
+def test_a_uniform_image_lights_as_the_uniform_sky(scene):
+    """The same rays, read through the image or as the sky: the same colours. In the open-topped
+    room most points see the sky through the opening, partly: their second looks along its outline
+    (``direct.OUTLINE_LOOKS``) read the image as well."""
     image = np.full((8, 16, 3), SKY)
-    with_image = bake(tilted_plane(0.7, environment=Environment(image))).corner_colors
-    with_sky = bake(tilted_plane(0.7, sky=[SKY] * 3)).corner_colors
+    if scene == "plane":
+        with_image = bake(tilted_plane(0.7, environment=Environment(image))).corner_colors
+        with_sky = bake(tilted_plane(0.7, sky=[SKY] * 3)).corner_colors
+    else:
+        room = lit_room()
+        with_image = bake(dataclasses.replace(room, environment=Environment(image))).corner_colors
+        with_sky = bake(dataclasses.replace(room, sky=np.full(3, SKY))).corner_colors
+        assert with_sky.min() < 0.5 * with_sky.max()  # the room's shade: not all of it sees all the sky
     np.testing.assert_allclose(with_image, with_sky, rtol=1e-12)
 
 
