@@ -64,18 +64,20 @@ def coplanar_overlap_pairs(corners: np.ndarray, owners: np.ndarray) -> tuple[np.
     first, second = spatial.overlapping_boxes(low, high, low, high, in_plane)
     pair = np.unique(listed[first] * len(corners) + listed[second])  # a pair may share two groups
     a, b = pair // len(corners), pair % len(corners)
-    tolerance = CONTACT_TOLERANCE * sizes[a]
-    overlap = np.ones(len(a), dtype=bool)
-    for triangle in (a, b):
+    overlap = np.arange(len(a))  # the pairs no axis has parted yet: most part on the first
+    for side in (0, 1):
         for i in range(3):
+            first, second = a[overlap], b[overlap]
+            triangle = first if side == 0 else second
             edge = corners[triangle, (i + 1) % 3] - corners[triangle, i]
-            axis = np.cross(normals[a], edge)
+            axis = np.cross(normals[first], edge)
             axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-            project_a = np.einsum("kcx,kx->kc", corners[a], axis)
-            project_b = np.einsum("kcx,kx->kc", corners[b], axis)
+            project_a = np.einsum("kcx,kx->kc", corners[first], axis)
+            project_b = np.einsum("kcx,kx->kc", corners[second], axis)
+            tolerance = CONTACT_TOLERANCE * sizes[first]
             apart = (project_a.max(axis=1) <= project_b.min(axis=1) + tolerance) | \
                 (project_b.max(axis=1) <= project_a.min(axis=1) + tolerance)
-            overlap &= ~apart
+            overlap = overlap[~apart]
     return a[overlap], b[overlap]
 
 
