@@ -46,7 +46,7 @@ class Emitters:
             return patch, weight
         chosen = self.patches[np.minimum(np.searchsorted(self.cumulative, rng.random(len(points)), side="right"),
                                          len(self.patches) - 1)]
-        target = uniform_points(mesh.patch_corners[chosen], rng.random((len(points), 2)))
+        target = uniform_points(np.take(mesh.patch_corners, chosen, axis=0), rng.random((len(points), 2)))
         offset = target - points
         cos_here = np.einsum("ij,ij->i", offset, normals)
         cos_there = -np.einsum("ij,ij->i", offset, mesh.patch_normals[chosen])  # both times the distance

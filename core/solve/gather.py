@@ -237,7 +237,7 @@ class GatherHits:
                 bounce, (first, last) = self.bounces[depth], spans[depth]
                 met = bounce.patches[first:last]
                 share = bounce.share[first:last].astype(np.float64)
-                values = second[met]
+                values = np.take(second, met, axis=0)  # as second[met], several times faster
                 shining = np.nonzero(share < 1)  # rays that met an emitter (elsewhere the share is 1)
                 values[shining] -= (1 - share[shining])[:, None] * emitted[met[shining]]
                 if arriving is not None and len(arriving):  # the rays followed by the next bounce
@@ -253,7 +253,7 @@ class GatherHits:
 
         def block(start: int) -> Gathered:
             hits = self.patches[start:start + POINTS_PER_BLOCK]
-            samples = far[hits]
+            samples = np.take(far, hits, axis=0)  # as far[hits], several times faster
             change = np.zeros((len(hits), samples.shape[2]))
             if self.bounces:
                 arriving, (first, last) = arriving_at_bounces(start * rays, (start + len(hits)) * rays)
@@ -315,8 +315,10 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
                                      rng)
         patches, bounces, offset = patch.astype(np.int32).reshape(count, rays), [], start * rays
         for level in range(depth):
-            close = np.flatnonzero((patch >= 0) & (np.linalg.norm(landed - origins, axis=1)
-                                                   < (reach if level == 0 else deep_reach)[np.maximum(patch, 0)]))
+            went = landed - origins
+            distance = np.sqrt(np.einsum("ij,ij->i", went, went))  # 5 times np.linalg.norm's speed
+            limit = (reach if level == 0 else deep_reach)[np.maximum(patch, 0)]
+            close = np.flatnonzero((patch >= 0) & (distance < limit))
             bounce, origins, patch, landed = _bounce(surfaces, emitters, lights, landed[close], patch[close],
                                                      followers[level], rng, start + level * len(points))
             bounces.append(replace(bounce, near=(close + offset).astype(index_type)))

@@ -124,7 +124,7 @@ class Surfaces:
         """``hit``'s patches and points for the front triangles ``front`` the rays met."""
         hit = front >= 0
         index = np.maximum(front, 0)
-        normals = self._normals[index]
+        normals = np.take(self._normals, index, axis=0)  # rows: several times faster than self._normals[index]
         facing = np.einsum("ij,ij->i", directions, normals)
         patch = np.where(facing < 0, front, self.mesh.back_of_front[index])
         patch[~hit] = -1

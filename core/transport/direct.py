@@ -37,7 +37,7 @@ from ..mesh.discretize import light_divisions
 from ..rays.visibility import RAY_EPSILON, Visibility
 from ..scene.lights import AreaLight, Environment, PointLight, SpotLight, SunLight, source_intensities
 from ..util import parallel
-from ..util.geometry import areas_and_normals, subdivide, tangent_frames
+from ..util.geometry import areas_and_normals, orthonormal_frames, subdivide, tangent_frames
 from .raycast import RayCaster, stratified_samples
 
 # Evaluation points per block of work (each with up to a few thousand rays).
@@ -384,7 +384,7 @@ def _seen(blocked: np.ndarray) -> np.ndarray:
 
 def _frames(normals: np.ndarray) -> np.ndarray:
     """(m, 3, 3) float32 frames about unit ``normals`` (m, 3): rows tangent, bitangent, normal."""
-    return np.stack(tangent_frames(normals) + (normals,), axis=1).astype(np.float32)
+    return orthonormal_frames(normals).astype(np.float32)
 
 
 def _cosine_directions(u: np.ndarray, cosine: np.ndarray, sine: np.ndarray, frames: np.ndarray) -> np.ndarray:

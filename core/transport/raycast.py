@@ -168,7 +168,8 @@ class RayCaster:
         # for most pairs) their verdict stands for every sample; the exact unoccluded form factor
         # only where some are seen (in a large scene most near pairs, and most of what a light
         # shoots, are hidden)
-        offset = self._unit_probes[sources] - origin[:, None, :]  # (n, s, 3): rays, t in [0, 1]
+        # (n, s, 3): rays, t in [0, 1]; np.take gathers rows faster than indexing
+        offset = np.take(self._unit_probes, sources, axis=0) - origin[:, None, :]
         probed = self._blocked(origin, offset, self._cos_source(offset, sources), sources)
         result = np.zeros(len(receivers))
         some_seen = np.flatnonzero(~(probed >= 1).all(axis=1))
@@ -201,7 +202,7 @@ class RayCaster:
     def _seen_fraction(self, origin, normal, sources, probed) -> np.ndarray:
         """(k,) the weighted share of the samples seen for pairs whose probes (k, probes)
         disagree: the other samples are cast too."""
-        offset = self._unit_samples[sources] - origin[:, None, :]  # (k, S, 3)
+        offset = np.take(self._unit_samples, sources, axis=0) - origin[:, None, :]  # (k, S, 3)
         cos_source = self._cos_source(offset, sources)  # times -distance
         blocked = np.empty(offset.shape[:2], dtype=probed.dtype)
         blocked[:, self._probe] = probed

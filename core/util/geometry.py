@@ -36,17 +36,28 @@ def longest_edges(corners: np.ndarray) -> np.ndarray:
 
 
 def tangent_frames(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit tangents (n, 3) each, orthogonal to the unit ``normals`` and to each other.
+    """Two unit tangents (n, 3) each, orthogonal to the unit ``normals`` and to each other: the
+    first two rows of ``orthonormal_frames``."""
+    frames = orthonormal_frames(normals)
+    return frames[:, 0], frames[:, 1]
+
+
+def orthonormal_frames(normals: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) frames about unit ``normals`` (n, 3): rows a unit tangent, a unit bitangent
+    (tangent x bitangent = normal) and the normal, written in place (stacking them took longer
+    than computing them).
 
     Branchless construction of Duff et al., "Building an Orthonormal Basis, Revisited" (JCGT 2017).
     """
-    x, y, z = normals.T
+    x, y, z = normals[:, 0], normals[:, 1], normals[:, 2]
     sign = np.where(z >= 0, 1.0, -1.0)
     a = -1.0 / (sign + z)
     b = x * y * a
-    tangent = np.stack([1 + sign * x * x * a, sign * b, -sign * x], axis=1)
-    bitangent = np.stack([b, sign + y * y * a, -y], axis=1)
-    return tangent, bitangent
+    frames = np.empty((len(normals), 3, 3))
+    frames[:, 0, 0], frames[:, 0, 1], frames[:, 0, 2] = 1 + sign * x * x * a, sign * b, -sign * x
+    frames[:, 1, 0], frames[:, 1, 1], frames[:, 1, 2] = b, sign + y * y * a, -y
+    frames[:, 2] = normals
+    return frames
 
 
 def barycentric_grid(divisions: int) -> tuple[np.ndarray, np.ndarray]:
@@ -126,6 +137,6 @@ def cosine_directions(normals: np.ndarray, uv: np.ndarray) -> np.ndarray:
     local = np.empty((*uv.shape[:-1], 3))  # (n, ..., 3) in the frame (tangent, bitangent, normal)
     local[..., 0], local[..., 1] = radius * np.cos(angle), radius * np.sin(angle)
     local[..., 2] = np.sqrt(np.maximum(1.0 - uv[..., 0], 0.0))
-    frames = np.stack(tangent_frames(normals) + (normals,), axis=1)  # (n, 3, 3), rows the axes
+    frames = orthonormal_frames(normals)
     per_normal = int(np.prod(uv.shape[1:-1]))
     return (local.reshape(len(normals), per_normal, 3) @ frames).reshape(local.shape)
