@@ -316,7 +316,7 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
         patches, bounces, offset = patch.astype(np.int32).reshape(count, rays), [], start * rays
         for level in range(depth):
             went = landed - origins
-            distance = np.sqrt(np.einsum("ij,ij->i", went, went))  # 5 times np.linalg.norm's speed
+            distance = np.sqrt(np.einsum("ij,ij->i", went, went))  # faster than np.linalg.norm on rows of 3
             limit = (reach if level == 0 else deep_reach)[np.maximum(patch, 0)]
             close = np.flatnonzero((patch >= 0) & (distance < limit))
             bounce, origins, patch, landed = _bounce(surfaces, emitters, lights, landed[close], patch[close],
