@@ -67,14 +67,14 @@ def coplanar_overlap_pairs(corners: np.ndarray, owners: np.ndarray) -> tuple[np.
     overlap = np.arange(len(a))  # the pairs no axis has parted yet: most part on the first
     for side in (0, 1):
         for i in range(3):
-            first, second = a[overlap], b[overlap]
-            triangle = first if side == 0 else second
+            still_a, still_b = a[overlap], b[overlap]
+            triangle = still_a if side == 0 else still_b
             edge = corners[triangle, (i + 1) % 3] - corners[triangle, i]
-            axis = np.cross(normals[first], edge)
+            axis = np.cross(normals[still_a], edge)
             axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-            project_a = np.einsum("kcx,kx->kc", corners[first], axis)
-            project_b = np.einsum("kcx,kx->kc", corners[second], axis)
-            tolerance = CONTACT_TOLERANCE * sizes[first]
+            project_a = np.einsum("kcx,kx->kc", corners[still_a], axis)
+            project_b = np.einsum("kcx,kx->kc", corners[still_b], axis)
+            tolerance = CONTACT_TOLERANCE * sizes[still_a]
             apart = (project_a.max(axis=1) <= project_b.min(axis=1) + tolerance) | \
                 (project_b.max(axis=1) <= project_a.min(axis=1) + tolerance)
             overlap = overlap[~apart]
