@@ -3,6 +3,7 @@ a bake's ray casting is measured against (the benchmarks study)."""
 
 from __future__ import annotations
 
+import functools
 import math
 import statistics
 import time
@@ -35,7 +36,7 @@ class RawEmbree:
             self.query, rays, self._trace = "INTERSECT", _hemisphere_rays(mesh, rng), visibility.nearest
         else:
             self.query, rays = "OCCLUDED", _segment_rays(mesh, visibility, rng)
-            self._trace = visibility.occluded_unit
+            self._trace = functools.partial(visibility.occluded_unit, jittered=True)  # drawn at random, as the shots'
         chunks = np.array_split(np.arange(RAW_RAYS), parallel.THREADS)
         self._parts = [tuple(array[chunk] for array in rays) for chunk in chunks]
 

@@ -58,7 +58,7 @@ class Emitters:
         start = visibility.to_unit(points[lit]) + RAY_EPSILON * visibility.to_unit_directions(normals[lit])
         ray = visibility.to_unit(target[lit]) - start
         across = np.maximum(-np.einsum("ij,ij->i", ray, mesh.patch_normals[chosen[lit]]), np.finfo(np.float32).tiny)
-        passing = 1 - visibility.blocked_unit(start, ray, 1 - RAY_EPSILON / across)
+        passing = 1 - visibility.blocked_unit(start, ray, 1 - RAY_EPSILON / across, jittered=True)
         squared = np.einsum("ij,ij->i", offset[lit], offset[lit])
         density = self.density[chosen[lit]]
         geometry = cos_here[lit] * cos_there[lit] / (np.pi * squared**2) / density

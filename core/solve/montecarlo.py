@@ -96,8 +96,10 @@ class Surfaces:
 
     def _traced(self, origins: np.ndarray, directions: np.ndarray, lift: np.ndarray,
                 rng: np.random.Generator | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``hit``'s patches and points, and the front triangle each ray last met (-1: none)."""
-        front = self.visibility.nearest(origins, directions, lift)
+        """``hit``'s patches and points, and the front triangle each ray last met (-1: none). The
+        rays are drawn at random (the particles', the gathers'): ``Visibility`` traces them as
+        ``jittered``."""
+        front = self.visibility.nearest(origins, directions, lift, jittered=True)
         patch, points = self._landing(origins, directions, front)
         if rng is None or not self.visibility.see_through:
             return patch, points, front
@@ -107,7 +109,7 @@ class Surfaces:
             if len(crossing) == 0:
                 break
             going = directions[crossing]
-            front[crossing] = self.visibility.nearest(points[crossing], going, going)
+            front[crossing] = self.visibility.nearest(points[crossing], going, going, jittered=True)
             patch[crossing], points[crossing] = self._landing(points[crossing], going, front[crossing])
             deciding = crossing[front[crossing] >= 0]
         return patch, points, front

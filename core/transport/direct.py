@@ -209,7 +209,7 @@ class DirectLighting:
                     seen = self._seen_in_cone(points[lit], normals[lit], -light.direction, light.angle / 2, samples)
                 else:
                     towards = np.broadcast_to(-light.direction, (len(lit), 3))
-                    seen = self._unblocked(points[lit], normals[lit], towards[:, None], None)[:, 0]
+                    seen = self._unblocked(points[lit], normals[lit], towards[:, None], None, jittered=False)[:, 0]
                 result[lit, index] = (cosine[lit] * seen / math.pi)[:, None]
             elif isinstance(light, (PointLight, SpotLight)):
                 offset = light.position - points
@@ -223,7 +223,7 @@ class DirectLighting:
                     samples = self._light_samples(lit, first, index, paired)
                     seen = self._seen_on_disc(points[lit], normals[lit], light.position, light.radius, samples)
                 else:
-                    seen = self._unblocked(points[lit], normals[lit], offset[lit][:, None], 1.0)[:, 0]
+                    seen = self._unblocked(points[lit], normals[lit], offset[lit][:, None], 1.0, jittered=False)[:, 0]
                 result[lit, index] = (strength[lit] * seen / (4 * math.pi**2))[:, None]
         return result
 
@@ -247,7 +247,7 @@ class DirectLighting:
         r, angle = radius * np.sqrt(samples[..., 0]), 2 * math.pi * samples[..., 1]
         targets = (centre + (r * np.cos(angle))[..., None] * tangent[:, None]
                    + (r * np.sin(angle))[..., None] * bitangent[:, None])  # (k, s, 3)
-        return self._unblocked(points, normals, targets - points[:, None], 1.0).mean(axis=1)
+        return self._unblocked(points, normals, targets - points[:, None], 1.0, jittered=True).mean(axis=1)
 
     def _seen_in_cone(self, points, normals, axis, half_angle, samples) -> np.ndarray:
         """(k,) the share of the directions (uniform in solid angle within ``half_angle`` of the
@@ -257,7 +257,7 @@ class DirectLighting:
         sin_theta, phi = np.sqrt(np.maximum(1.0 - cos_theta ** 2, 0.0)), 2 * math.pi * samples[..., 1]
         directions = (cos_theta[..., None] * axis + (sin_theta * np.cos(phi))[..., None] * tangent[0]
                       + (sin_theta * np.sin(phi))[..., None] * bitangent[0])  # (k, s, 3)
-        return self._unblocked(points, normals, directions, None).mean(axis=1)
+        return self._unblocked(points, normals, directions, None, jittered=True).mean(axis=1)
 
     def _smooth(self, points, normals, first, outlined: bool = False,
                 sky_rays: int = SKY_RAYS_PER_RAY) -> tuple[np.ndarray, np.ndarray]:
@@ -302,7 +302,8 @@ class DirectLighting:
             square -= np.floor(square)  # modulo 1
             angle = (2 * math.pi * square[..., 1]).astype(np.float32)  # as the directions are
             fine = _cosine_directions(square[..., 0], np.cos(angle), np.sin(angle), _frames(normals)[point])
-            fine_shares = self._each_direction(fine, self._unblocked(points[point], normals[point], fine, None))
+            through = self._unblocked(points[point], normals[point], fine, None, jittered=True)
+            fine_shares = self._each_direction(fine, through)
             for share, fine_share in zip(shares, fine_shares):
                 share[point, stratum] = fine_share.mean(axis=1)
         return _joined([share.mean(axis=1) for share in shares])
@@ -345,7 +346,7 @@ class DirectLighting:
                                         np.cos(stratum) * np.cos(turn) - np.sin(stratum) * np.sin(turn),
                                         np.sin(stratum) * np.cos(turn) + np.cos(stratum) * np.sin(turn),
                                         _frames(normals))
-        return directions, self._unblocked(points, normals, directions, None)
+        return directions, self._unblocked(points, normals, directions, None, jittered=True)
 
     def _rotation(self, first: int, look: int, count: int) -> np.ndarray:
         """(count, 2) the rotations of the sky's strata (``_open_sky``) at the points of the block
@@ -353,12 +354,14 @@ class DirectLighting:
         stream = [self.seed, first, 0, look] if look else [self.seed, first]  # not a light's (``_light_samples``)
         return np.random.default_rng(stream).random((count, 2))
 
-    def _unblocked(self, points, normals, offsets, reach) -> np.ndarray:
+    def _unblocked(self, points, normals, offsets, reach, *, jittered: bool) -> np.ndarray:
         """(m, s) what gets through along each of the s rays from each point (m, 3) along
         ``offsets`` (m, s, 3): whether no surface blocks it, or the share of its light no surface
         stops where some let light through (``Visibility.blocked_unit``); ``reach`` 1.0 up to the
-        offsets' ends, None to infinity (the offsets then unit directions). The rays start
-        RAY_EPSILON off the point's surface, a point's rays from one start computed once."""
+        offsets' ends, None to infinity (the offsets then unit directions); ``jittered``: the
+        offsets are drawn at random (the sky's, a soft light's), not every point's the same (a
+        sun's) or aimed at one point (a point light's). The rays start RAY_EPSILON off the
+        point's surface, a point's rays from one start computed once."""
         visibility = self.visibility
         shape = offsets.shape[:2]
         if offsets.size == 0:
@@ -373,7 +376,8 @@ class DirectLighting:
             ray_reach = reach - RAY_EPSILON / np.maximum(lengths, np.finfo(np.float32).tiny)
         ray_starts, ray_reaches = np.empty((*shape, 3), np.float32), np.empty(shape, np.float32)
         ray_starts[:], ray_reaches[:] = starts[:, None], ray_reach
-        blocked = visibility.blocked_unit(ray_starts.reshape(-1, 3), directions.reshape(-1, 3), ray_reaches.reshape(-1))
+        blocked = visibility.blocked_unit(ray_starts.reshape(-1, 3), directions.reshape(-1, 3), ray_reaches.reshape(-1),
+                                          jittered=jittered)
         return _seen(blocked).reshape(shape)
 
 

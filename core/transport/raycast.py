@@ -14,6 +14,8 @@ shifted by a per-patch Cranley-Patterson rotation), so results do not depend on 
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..rays.visibility import RAY_EPSILON, Visibility
@@ -223,7 +225,8 @@ class RayCaster:
         across = np.maximum(-cos_source, np.finfo(np.float32).tiny).reshape(-1)
         # stop RAY_EPSILON short of the source's plane, measured across it: a grazing ray then
         # cannot hit its own source through the rounding of the sample onto float32
-        blocked_unit = self.visibility.blocked_unit
+        # the samples are jittered at random (``stratified_samples``): the faster scene traces them
+        blocked_unit = functools.partial(self.visibility.blocked_unit, jittered=True)
         if self.owners is None:  # a light, which may lie beyond the walls
             return blocked_unit(starts, directions, 1 - RAY_EPSILON / across).reshape(-1, rays)
         # from a point of the surfaces to a patch: a wall with everything in front of it cannot block
@@ -248,7 +251,7 @@ class RayCaster:
         # the solid angle, as they share a hemicube's pixels, instead of both taking all of it);
         # anything else blocks
         visibility = self.visibility
-        first = visibility.first_hit_unit(starts, directions, 1 + RAY_EPSILON / across)
+        first = visibility.first_hit_unit(starts, directions, 1 + RAY_EPSILON / across, jittered=True)
         hit = np.maximum(first, 0)
         blocked = (first >= 0) & (visibility.owners[hit] != owners)
         candidates = np.flatnonzero(blocked)
