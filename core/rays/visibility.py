@@ -145,13 +145,12 @@ class Visibility:
         random (the module's docstring)."""
         return self._occluded(starts, directions, reach, self._occluders, jittered)
 
-    def occluded_between_unit(self, starts: np.ndarray, directions: np.ndarray, reach: np.ndarray,
-                              jittered: bool = False) -> np.ndarray:
+    def occluded_between_unit(self, starts: np.ndarray, directions: np.ndarray, reach: np.ndarray) -> np.ndarray:
         """``occluded_unit`` for rays from points on or in front of the triangles' surfaces
         (lifted off them to their front) to points of those surfaces: no ``enclosing`` triangle
         can block them, so none is traced (the same answers, fewer triangles: in a room, its
         walls)."""
-        return self._occluded(starts, directions, reach, self._inner, jittered)
+        return self._occluded(starts, directions, reach, self._inner, jittered=False)
 
     @property
     def see_through(self) -> bool:
