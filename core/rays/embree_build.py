@@ -7,7 +7,9 @@ stop (docs/notes/experiments.md). ``triangle_scene`` makes the ``EmbreeScene`` a
 (its device and ``RTCScene``), so that embreex traces it as any other, and fills and commits it
 through Embree's C API by ctypes, which releases the GIL around each call (NumPy's copy into
 Embree's vertex buffer releases it too): one triangle geometry, its vertices the triangles'
-corners in order (as ``TriangleMesh`` lays them out), so hits name the same triangles.
+corners in order (as ``TriangleMesh`` lays them out), so hits name the same triangles. embreex
+reports the device's errors through a Python function, which Embree would call inside those calls,
+without the GIL: the scene's device reports none, and the errors are read after the calls.
 
 That needs the ``RTCScene`` pointer embreex keeps in a C field of its ``EmbreeScene``
 (rtcore_scene.pxd: ``scene_i``, then ``is_committed``, right after the object's header). The
@@ -19,7 +21,8 @@ Robust or not: embreex's scenes are robust (``RTC_SCENE_FLAG_ROBUST``): watertig
 an edge or vertex shared by two triangles meets one of them. Without it, and with spatial splits
 (``RTC_BUILD_QUALITY_HIGH``, no faster in robust mode), Embree traced Sponza's random
 rays 1.4 (nearest hits) and 1.3 (occlusion) times as fast, but rays aimed at the shared vertices of
-a closed mesh went through it one time in ten: only rays jittered at random may use it
+a closed mesh went through it one time in eight, and a ray that starts exactly in a triangle's
+plane never meets it: only rays jittered at random, lifted off the surface they leave, may use it
 (``visibility``).
 """
 
@@ -51,19 +54,27 @@ def triangle_scene(triangles: np.ndarray, robust: bool = True):
         return None
     from embreex.rtcore_scene import EmbreeScene
 
-    scene = EmbreeScene(device=_device())
+    scene = EmbreeScene()
     pointer = _scene_pointer(scene)
     if pointer is None:
         return None
-    quality = _BUILD_QUALITY_MEDIUM if robust else _BUILD_QUALITY_HIGH
+    device = api.rtcGetSceneDevice(pointer)  # a reference of our own, released below
+    try:
+        api.rtcSetDeviceErrorFunction(device, None, None)
+        return _filled(api, scene, pointer, device, triangles, robust)
+    finally:
+        api.rtcReleaseDevice(device)
+
+
+def _filled(api, scene, pointer: int, device: int, triangles: np.ndarray, robust: bool):
+    """``scene`` (its ``RTCScene`` ``pointer`` on ``device``) holding ``triangles``, committed, or
+    None where Embree reports an error."""
     api.rtcSetSceneFlags(pointer, _SCENE_FLAG_ROBUST if robust else _SCENE_FLAG_NONE)
-    api.rtcSetSceneBuildQuality(pointer, quality)
-    device = api.rtcGetSceneDevice(pointer)
+    api.rtcSetSceneBuildQuality(pointer, _BUILD_QUALITY_MEDIUM if robust else _BUILD_QUALITY_HIGH)
     count = len(triangles)
     geometry = api.rtcNewGeometry(device, _TRIANGLE)
     if not geometry:
         return None
-    api.rtcSetGeometryBuildQuality(geometry, quality)
     vertices = api.rtcSetNewGeometryBuffer(geometry, _VERTEX_BUFFER, 0, _FLOAT3, 12, 3 * count)
     indices = api.rtcSetNewGeometryBuffer(geometry, _INDEX_BUFFER, 0, _UINT3, 12, count)
     if not vertices or not indices or api.rtcGetDeviceError(device):
@@ -95,15 +106,6 @@ def _scene_pointer(scene) -> int | None:
 
 
 @functools.cache
-def _device():
-    """One Embree device for every scene built here: embreex makes a device per scene, and one
-    process failed to make its 1,017th while the others lived."""
-    from embreex.rtcore import EmbreeDevice
-
-    return EmbreeDevice()
-
-
-@functools.cache
 def _api():
     """Embree's C functions from the library embreex loaded (its wheel's copy), or None."""
     try:
@@ -127,7 +129,8 @@ def _api():
             "rtcCommitScene": ([ctypes.c_void_p], None),
             "rtcSetSceneFlags": ([ctypes.c_void_p, ctypes.c_int], None),
             "rtcSetSceneBuildQuality": ([ctypes.c_void_p, ctypes.c_int], None),
-            "rtcSetGeometryBuildQuality": ([ctypes.c_void_p, ctypes.c_int], None),
+            "rtcSetDeviceErrorFunction": ([ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p], None),
+            "rtcReleaseDevice": ([ctypes.c_void_p], None),
         }
         for name, (arguments, result) in signatures.items():
             function = getattr(library, name)

@@ -247,7 +247,7 @@ class DirectLighting:
         r, angle = radius * np.sqrt(samples[..., 0]), 2 * math.pi * samples[..., 1]
         targets = (centre + (r * np.cos(angle))[..., None] * tangent[:, None]
                    + (r * np.sin(angle))[..., None] * bitangent[:, None])  # (k, s, 3)
-        return self._unblocked(points, normals, targets - points[:, None], 1.0, jittered=True).mean(axis=1)
+        return self._unblocked(points, normals, targets - points[:, None], 1.0, jittered=False).mean(axis=1)
 
     def _seen_in_cone(self, points, normals, axis, half_angle, samples) -> np.ndarray:
         """(k,) the share of the directions (uniform in solid angle within ``half_angle`` of the
@@ -257,7 +257,7 @@ class DirectLighting:
         sin_theta, phi = np.sqrt(np.maximum(1.0 - cos_theta ** 2, 0.0)), 2 * math.pi * samples[..., 1]
         directions = (cos_theta[..., None] * axis + (sin_theta * np.cos(phi))[..., None] * tangent[0]
                       + (sin_theta * np.sin(phi))[..., None] * bitangent[0])  # (k, s, 3)
-        return self._unblocked(points, normals, directions, None, jittered=True).mean(axis=1)
+        return self._unblocked(points, normals, directions, None, jittered=False).mean(axis=1)
 
     def _smooth(self, points, normals, first, outlined: bool = False,
                 sky_rays: int = SKY_RAYS_PER_RAY) -> tuple[np.ndarray, np.ndarray]:
@@ -359,9 +359,10 @@ class DirectLighting:
         ``offsets`` (m, s, 3): whether no surface blocks it, or the share of its light no surface
         stops where some let light through (``Visibility.blocked_unit``); ``reach`` 1.0 up to the
         offsets' ends, None to infinity (the offsets then unit directions); ``jittered``: the
-        offsets are drawn at random (the sky's, a soft light's), not every point's the same (a
-        sun's) or aimed at one point (a point light's). The rays start RAY_EPSILON off the
-        point's surface, a point's rays from one start computed once."""
+        offsets are drawn at random over the hemisphere (the sky's), not the same at every point (a
+        sun's, nearly so for a sun of a tiny angle) or aimed at one point (a point light's, nearly
+        so for a small radius). The rays start RAY_EPSILON off the point's surface, a point's rays
+        from one start computed once."""
         visibility = self.visibility
         shape = offsets.shape[:2]
         if offsets.size == 0:
