@@ -239,7 +239,8 @@ class Visibility:
 
 class _Traced:
     """One set of float32 triangles (n, 3, 3) as scenes of ``backend`` ready to trace: watertight,
-    and for rays ``jittered`` at random Embree's faster scene, built at their first query."""
+    and for rays ``jittered`` at random Embree's faster scene, built at their first query (the
+    triangles are kept until then)."""
 
     def __init__(self, backend: str, triangles: np.ndarray) -> None:
         self._watertight = _traced(backend, triangles)
