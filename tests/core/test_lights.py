@@ -287,14 +287,17 @@ def room_with_a_skylight(hole: float = 0.3, size: float = 4.0, height: float = 3
 
 
 def skylight_errors(seeds: range) -> tuple[np.ndarray, np.ndarray]:
-    """The floor corners' sky light under ``room_with_a_skylight``, baked with each of ``seeds``,
-    less F(corner -> hole) by the exact contour formula (the floor sees nothing else that is
-    lit); and F."""
+    """The sky light at the floor's points under ``room_with_a_skylight`` (each once: the corners
+    at a point of the flat floor share its node), baked with each of ``seeds``, less F(point ->
+    hole) by the exact contour formula (the floor sees nothing else that is lit); and F."""
     scene, floor_count, hole = room_with_a_skylight()
     corners = scene.vertices[scene.triangles[:floor_count]].reshape(-1, 3)
-    up = np.tile([0.0, 0.0, 1.0], (len(corners), 1))
-    factor = sum(point_to_triangle(corners, up, np.repeat(triangle[None], len(corners), axis=0)) for triangle in hole)
-    errors = [bake(scene, seed=seed).corner_colors[:floor_count, :, 0].reshape(-1) / RHO - factor for seed in seeds]
+    _, corner = np.unique(corners.round(9), axis=0, return_index=True)
+    vertices = corners[corner]
+    up = np.tile([0.0, 0.0, 1.0], (len(vertices), 1))
+    factor = sum(point_to_triangle(vertices, up, np.repeat(triangle[None], len(vertices), axis=0)) for triangle in hole)
+    errors = [bake(scene, seed=seed).corner_colors[:floor_count, :, 0].reshape(-1)[corner] / RHO - factor
+              for seed in seeds]
     return np.concatenate(errors), factor
 
 
@@ -303,14 +306,14 @@ def test_a_skylight_seen_through_less_than_a_stratum_reads_its_light_on_average(
     its cosine-weighted hemisphere, less than one of its 256 strata (0.0039), and most points'
     directions miss it. A point looks again where the open directions of the nearest other
     points show it the sky (``_sky_next_door``), and keeps its own directions' mean elsewhere:
-    the choice does not depend on those directions, so the reading is unbiased. Over 4 seeds the
-    floor's mean error is +0.02 of the mean F, its standard error 0.017 (held to 4 of those);
-    when a point looked again only where its own directions had met the sky, and read none where
-    they all missed, -0.50."""
-    errors, factor = skylight_errors(range(4))
+    the choice does not depend on those directions, so the reading is unbiased. Over 8 seeds and
+    the floor's 289 points the mean error is +0.008 of the mean F, its standard error 0.024 (held to 4
+    of those, which must resolve 0.15 of the light); when a point looked again only where its own
+    directions had met the sky, and read none where they all missed, -0.50."""
+    errors, factor = skylight_errors(range(8))
     standard_error = errors.std() / np.sqrt(len(errors))
     assert factor.max() < 1 / 256
-    assert abs(errors.mean()) < 4 * standard_error < 0.1 * factor.mean(), (errors.mean(), standard_error)
+    assert abs(errors.mean()) < 4 * standard_error < 0.15 * factor.mean(), (errors.mean(), standard_error)
 
 
 def test_a_thin_bar_across_the_sky_keeps_its_shadow():
