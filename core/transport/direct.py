@@ -304,13 +304,18 @@ class DirectLighting:
         (NEXT_DOOR_RAYS of each), and (k, K) the strata those directions fall in (``_open_sky``'s,
         at each point's ``rotation`` (m, 2)). Neither depends on a point's own directions."""
         partly = np.flatnonzero((open_sky > 0).any(axis=1) & (open_sky < 1).any(axis=1))
-        if len(partly) < 2:
+        if len(partly) == 0:
             return np.zeros(0, np.int64), np.zeros((0, open_sky.shape[1]), bool)
-        gap = ((points[:, None, :] - points[None, partly, :]) ** 2).sum(axis=2)  # (m, p)
+        # squared distances (m, p), as |a|^2 + |b|^2 - 2 a.b: no (m, p, 3) differences
+        square = np.einsum("mx,mx->m", points, points)
+        gap = square[:, None] + square[partly][None, :] - 2.0 * (points @ points[partly].T)
         gap[partly, np.arange(len(partly))] = np.inf  # another point's, not its own
-        neighbours = min(NEXT_DOOR_POINTS, len(partly) - 1)
-        nearest = partly[np.argpartition(gap, neighbours - 1, axis=1)[:, :neighbours]]  # (m, n)
-        opened = open_sky[nearest] > 0  # (m, n, K)
+        # the same count of others whether a point is partly open or not: the choice must not
+        # depend on its own directions (its own column, infinitely far, is dropped below)
+        neighbours = min(NEXT_DOOR_POINTS, len(partly))
+        columns = np.argpartition(gap, neighbours - 1, axis=1)[:, :neighbours]  # (m, n)
+        nearest = partly[columns]
+        opened = (open_sky[nearest] > 0) & np.isfinite(np.take_along_axis(gap, columns, axis=1))[..., None]  # (m, n, K)
         opened &= np.cumsum(opened, axis=2) <= NEXT_DOOR_RAYS
         point, neighbour, stratum = np.nonzero(opened)
         candidate = directions[nearest[point, neighbour], stratum]  # (c, 3) world directions
