@@ -71,7 +71,7 @@ OUTLINE_LOOKS = 2
 # own directions, a point whose directions all missed a window seen through less than a stratum
 # read none, and under such a skylight a floor read half its light on average
 # (``test_a_skylight_seen_through_less_than_a_stratum_reads_its_light_on_average``). The breakfast
-# room's error from path tracing 9.82 / 10.12 -> 8.67 / 9.52 % (seeds 0 / 1) for 4.6 s more
+# room's error from path tracing 9.82 / 10.12 -> 8.67 / 9.52 % (seeds 0 / 1) for about 4 s more
 # (docs/notes/experiments.md, "Embree's faster scene for the random rays").
 NEXT_DOOR_RAYS = 16
 NEXT_DOOR_POINTS = 3
