@@ -7,9 +7,11 @@ their radiosity, so it is independent of the solvers and of the bake's knobs but
 
 from __future__ import annotations
 
+import hashlib
 import math
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -38,6 +40,15 @@ class CornerAnswer:
     def noise(self) -> float:
         """The answer's own noise: RMS of the standard errors over the mean radiosity."""
         return rms(self.standard_error) / float(self.radiosity.mean())
+
+
+def tracer_digest() -> str:
+    """The first 12 hex digits of a SHA-1 over this module's and bench/pathtrace.py's sources: which
+    path tracer an answer came from (a cached answer of another is traced again)."""
+    digest = hashlib.sha1()
+    for source in (Path(__file__), Path(__file__).with_name("pathtrace.py")):
+        digest.update(source.read_bytes())
+    return digest.hexdigest()[:12]
 
 
 def path_traced_corners(scene: Scene, patch_size: float, count: int, paths: int) -> CornerAnswer:

@@ -11,7 +11,10 @@ event estimation, Pharr, Jakob and Humphreys, "Physically Based Rendering", 4th 
   counts too; the two estimates of the same light are weighted by the power heuristic;
 * from the third bounce on, Russian roulette: the path survives with s = max_c of its throughput
   (at least MIN_SURVIVAL), divided by s if it does; at most MAX_BOUNCES bounces (the light of
-  longer paths, below rho_max^MAX_BOUNCES of the total, is left out);
+  longer paths, below rho_max^MAX_BOUNCES of the total, is left out: 0.999^65,536 = 4e-29 for the
+  OBJ reader's brightest surfaces, where 256 left out up to 77 %: a furnace of 0.999 read 0.225 of
+  its light, and the light carried hundreds of bounces under a cup 3 mm above a table, both of
+  0.999, half of it);
 * a uniform sky S (``Scene.sky``) adds S times the path's throughput where a bounce meets no
   surface (cosine-distributed bounces sample it exactly in proportion to what it gives: an
   open point's G is S).
@@ -34,7 +37,7 @@ from core.util.geometry import cosine_directions
 from core.util.progress import Report, quiet
 
 MIN_SURVIVAL = 0.05
-MAX_BOUNCES = 256
+MAX_BOUNCES = 1 << 16
 PATHS_PER_BLOCK = 1 << 17
 
 

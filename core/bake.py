@@ -228,7 +228,7 @@ class BakeSession:
             "seconds": stages.seconds | {"total": sum(stages.seconds.values())},
             "rays_cast": light.engine.rays_cast,
             "peak_memory_estimate": _base_bytes(mesh) + solution.extra_bytes + light.engine.working_bytes()
-            + (kept.bytes() if self.keep else 0),
+            + light.engine.visibility.bytes + (kept.bytes() if self.keep else 0),
             "error_estimate": error,
             "resolved": kept is self._kept,
             **solution.stats,

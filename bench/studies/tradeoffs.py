@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from bench import exact, machine, scenes
-from bench.corner_answer import CornerAnswer, path_traced_corners
+from bench.corner_answer import CornerAnswer, path_traced_corners, tracer_digest
 from bench.metrics import nrmse, without_noise, worst_share
 from bench.paths import BUILD, QUICK, RESULTS
 from bench.runner import cpu_seconds, in_fresh_process, peak_resident, reset_peak, resident
@@ -155,8 +155,9 @@ def cached_reference(case: Case, target: Target, timeout: float, core: str) -> t
 
 def cached_answer(name: str, scene: Scene, traced: PathTraced, core: str) -> CornerAnswer:
     """The path-traced answer at random corners of scene ``name`` (at the default patch size's
-    nodes), from CACHE if this core traced it before, else traced in a fresh process."""
-    path = cache_path(name, traced, core)
+    nodes), from CACHE if this core and this path tracer traced it before, else traced in a fresh
+    process."""
+    path = cache_path(name, (traced, tracer_digest()), core)
     if path.exists():
         with np.load(path) as stored:
             return CornerAnswer(**{key: stored[key] for key in stored.files if key != "seconds"},

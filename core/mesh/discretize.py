@@ -69,6 +69,8 @@ class Discretization:
     patch_casts : (P,) bool, which patches cast shadows (``Scene.casts_shadows``), or None: all.
     patch_opacity : (P,) float, the share of the light each patch stops (``Scene.opacity``; 1 for
         those that cast no shadow), or None: all of it.
+    node_vertex : (N,) int, the welded vertex each node belongs to (``topology.weld_corners``: the
+        nodes of one vertex, split by creases, materials or shading normals, share it), or None.
     """
 
     patch_corners: np.ndarray
@@ -90,6 +92,7 @@ class Discretization:
     panel_node: np.ndarray
     patch_casts: np.ndarray | None = None
     patch_opacity: np.ndarray | None = None
+    node_vertex: np.ndarray | None = None
 
     @property
     def patch_count(self) -> int:

@@ -70,6 +70,8 @@ def receiver_nodes(scene: Scene, crease_angle: float,
     lift = np.zeros(group_count)
     np.maximum.at(lift, corner_group[behind], -height[behind] / facing[behind])
     points += lift[:, None] * node_normals
+    node_vertex = np.zeros(group_count, dtype=np.int64)
+    node_vertex[corner_group] = weld.ravel()[valid_corners]
     corner_node = np.full(triangle_count * 3, -1, dtype=np.int64)
     corner_node[valid_corners] = corner_group
     _borrow_neighbour_nodes(corner_node, weld.ravel(), scene.material[np.arange(triangle_count * 3) // 3])
@@ -80,6 +82,7 @@ def receiver_nodes(scene: Scene, crease_angle: float,
         "node_reflectance": reflectance,
         "node_emission": emission,
         "corner_node": corner_node.reshape(triangle_count, 3),
+        "node_vertex": node_vertex,
     }
 
 

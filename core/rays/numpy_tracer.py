@@ -78,6 +78,11 @@ class NumpyTracer:
         if self.triangle_count:
             self._build(triangles, leaf_size)
 
+    @property
+    def bytes(self) -> int:
+        """The memory its arrays hold (the hierarchy and the triangles)."""
+        return sum(value.nbytes for value in vars(self).values() if isinstance(value, np.ndarray))
+
     def _build(self, triangles: np.ndarray, leaf_size: int) -> None:
         box_low, box_high = triangles.min(axis=1).T, triangles.max(axis=1).T  # (3, P)
         centre = (box_low + box_high) / 2

@@ -272,6 +272,12 @@ class _Levels:
         gathered = self._final_gather(mesh, visibility, read, stages)
         return radiosity, state.radiosity[mesh.patch_count:] + gathered.light, gathered
 
+    def _pools(self, mesh, visibility: Visibility) -> np.ndarray | None:
+        """The pool each node gathers in (``gather.node_pools``), or None."""
+        if "pools" not in self.kept:
+            self.kept["pools"] = gather.node_pools(mesh, visibility, self.settings.seed)
+        return self.kept["pools"]
+
     def _final_gather(self, mesh, visibility: Visibility, read: dict, stages: Stages) -> gather.Gathered:
         """The final gather at the nodes (N, C) of what the shots left, ``read`` the arguments of
         ``gather.GatherHits.read`` (far: X, what the patches add beyond their shots; near: their
@@ -289,7 +295,7 @@ class _Levels:
             self.kept["gather_hits"] = stages.run(
                 "final gather", (0.5, 0.8), lambda report: gather.gather_hits(
                     mesh, visibility, mesh.node_points, mesh.node_normals, rays, seed, report, near=near,
-                    lights=direct),
+                    lights=direct, pools=self._pools(mesh, visibility)),
                 timer="monte_carlo")
         first = self.kept["gather_hits"].read(**read)
         if "regathered" not in self.kept:
@@ -302,10 +308,15 @@ class _Levels:
             hits = None if len(nodes) == 0 else stages.run(
                 "final gather again where it is noisy", (0.8, 1.0), lambda report: gather.gather_hits(
                     mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes], more, seed, report,
-                    stream=gather.AGAIN_STREAM, near=near, lights=direct), timer="monte_carlo")
+                    stream=gather.AGAIN_STREAM, near=near, lights=direct,
+                    pools=None if mesh.node_vertex is None else self._pools(mesh, visibility)[nodes]),
+                timer="monte_carlo")
             self.kept["regathered"] = nodes, hits
         nodes, hits = self.kept["regathered"]
         self.stats["monte_carlo"]["regathered_nodes"] = len(nodes)
+        pools = self.kept.get("pools")
+        if pools is not None:
+            self.stats["monte_carlo"]["pooled_nodes"] = int((np.bincount(pools, minlength=len(pools))[pools] > 1).sum())
         if hits is None:
             return first
         second = hits.read(**read)

@@ -18,6 +18,7 @@ from core.transport.analytic import point_to_triangle
 from tests.core.scenes import box, grid, merge, quad, uniform
 from tests.core.test_form_factor_closed_forms import c11
 from tests.core.test_montecarlo import rays_of
+from tests.core.test_nodes import face_normals, tent, with_corner_normals
 
 WALL_REFLECTANCE = 0.8
 EMISSION = 10.0
@@ -301,3 +302,54 @@ def test_a_point_under_a_plate_two_millimetres_above_a_lit_floor_stays_as_dark_a
     traced = path_traced(mesh, rays_of(mesh), np.array([[2.0, 2.0, 0.0]]), np.array([[0.0, 0.0, 1.0]]), 20_000)
     allowed = reflectance**final_gather.NEAR_BOUNCES * brightest + 4 * traced.standard_error[0, 0]
     assert np.all(np.abs(found - traced.light[0, 0]) <= allowed), (found, traced.light[0, 0], allowed)
+
+
+def test_the_nodes_of_one_vertex_gather_together_without_bias_and_with_less_noise():
+    """Three nodes at one point 1 mm above a black floor, their normals tilted 0, 25 and 50 degrees
+    (the faces of a flat-shaded fold), under a unit square 1 above that reads 1: G = F(x -> square)
+    exactly by the contour integral. Each node weighing the rays of all three by the balance
+    heuristic (``pools``), the mean over 400 such vertices is within 4 standard errors of it at
+    each node (measured: within 0.15 %), and the RMS error over them is below each node's own 64
+    rays' (0.83, 0.54 and 0.39 of it measured) and below 0.75 of theirs together (0.60), while the
+    standard errors the gather reports are not below it."""
+    floor, square = quad([-2, -2, 0], [4, 0, 0], [0, 4, 0]), quad([-0.5, -0.5, 1.0], [0, 1, 0], [1, 0, 0])
+    vertices, triangles = merge(floor, square)
+    scene = Scene(vertices, triangles, np.zeros((len(triangles), 3)), np.zeros((len(triangles), 3)))
+    mesh = discretize(scene, 10.0)
+    values = np.isin(mesh.patch_triangle, [2, 3]).astype(float)[:, None]
+    tilt = np.radians([0.0, 25.0, 50.0])
+    normals = np.stack([np.sin(tilt), np.zeros(3), np.cos(tilt)], axis=1)
+    copies = 400
+    # the nodes of each tilt one after another, so that a pool's are not (``gather_hits`` sorts them)
+    points, facing = np.tile([[0.3, 0.1, 1e-3]], (3 * copies, 1)), np.repeat(normals, copies, axis=0)
+    exact = seen(vertices[triangles[2:4]])(points[:3], normals)
+    found = {}
+    for name, pools in (("alone", None), ("together", np.tile(np.arange(copies), 3))):
+        read = final_gather.gather_hits(mesh, rays_of(mesh), points, facing, 64, seed=3, near=False,
+                                        pools=pools).read(values)
+        found[name] = read.light[:, 0].reshape(3, copies).T, read.standard_error[:, 0].reshape(3, copies).T
+    together, error_bars = found["together"]
+    spread = together.std(axis=0) / np.sqrt(copies)
+    assert (np.abs(together.mean(axis=0) - exact) <= 4 * spread).all(), (together.mean(axis=0), exact, spread)
+    rms = {name: np.sqrt(((estimate - exact) ** 2).mean(axis=0)) for name, (estimate, _) in found.items()}
+    assert (rms["together"] < rms["alone"]).all(), rms
+    assert np.sqrt((rms["together"] ** 2).mean()) < 0.75 * np.sqrt((rms["alone"] ** 2).mean()), rms
+    assert (np.sqrt((error_bars ** 2).mean(axis=0)) >= rms["together"]).all()
+
+
+def test_the_nodes_of_a_vertex_gather_alone_where_a_surface_lies_millimetres_away():
+    """A tent of two unit squares 20 degrees apart, shaded flat: each ridge vertex has a node per
+    face, about 0.3 mm apart, and the two gather together (``node_pools``). Under a plate 2 mm
+    above the ridge each node sees its own few millimetres of it, where the light may change
+    across them, and gathers alone (most of the probes land within POOL_PARALLAX times 0.3 mm)."""
+    open_tent = tent(20.0)
+    plate = quad([-0.1, -0.1, 0.002], [0, 1.2, 0], [0.2, 0, 0])  # faces down
+    covered = uniform(*merge((open_tent.vertices, open_tent.triangles), plate), 0.5, 0.0)
+    pools = {}
+    for name, scene in (("open", open_tent), ("covered", covered)):
+        mesh = discretize(with_corner_normals(scene, face_normals(scene)), None, np.radians(30))
+        ridge = np.flatnonzero((np.abs(mesh.node_points[:, 0]) < 0.01) & (mesh.node_points[:, 2] < 0.001))
+        assert len(ridge) == 4 and len(np.unique(mesh.node_vertex[ridge])) == 2
+        pools[name] = final_gather.node_pools(mesh, rays_of(mesh))[ridge]
+    assert len(np.unique(pools["open"])) == 2
+    assert len(np.unique(pools["covered"])) == 4

@@ -21,7 +21,8 @@ import pytest
 from core import BakeCancelled, BakeSession, Environment, PointLight, Scene, SunLight, bake
 from core.util.progress import stop_abandoned
 
-from scenes import box, grid, lit_room, uniform
+from scenes import box, grid, lit_room, merge, uniform
+from test_nodes import face_normals, tent
 
 ROUNDING = 1e-9  # of the largest colour: same system, same rays, same patches
 # A new reflectance renumbers the near field's interpolation nodes (they are keyed by their
@@ -147,6 +148,30 @@ def test_a_monte_carlo_resolve_of_every_source_is_within_the_estimate_of_a_fresh
     again, fresh = session.bake(changed), bake(changed, **knobs)
     assert again.stats["resolved"] and not again.stats["monte_carlo"]["traced"]
     assert relative_rms(again, first) > 0.1
+    assert relative_rms(again, fresh) <= fresh.stats["error_estimate"]["total"]
+    assert_same_colours(session.bake(scene), first)
+
+
+def test_a_monte_carlo_resolve_reads_again_the_gather_of_nodes_that_gather_together():
+    """A tent shaded flat on the lit room's floor: the nodes of its ridge gather together
+    (``gather.node_pools``). A re-solve of new colours reads their kept rays with them (nothing
+    is traced) within the fresh bake's estimate of it, and back to the first colours it is the
+    first bake to rounding."""
+    room = lit_room()
+    roof = tent(20.0)
+    placed = roof.vertices * 0.3 + [0.6, 0.1, 0.1]  # on the floor, clear of it
+    vertices, triangles = merge((room.vertices, room.triangles), (placed, roof.triangles))
+    reflectance = np.vstack([room.reflectance, np.full((len(roof.triangles), 3), 0.7)])
+    emission = np.vstack([room.emission, np.zeros((len(roof.triangles), 3))])
+    flat = Scene(vertices, triangles, reflectance, emission)
+    scene = dataclasses.replace(flat, corner_normals=face_normals(flat))
+    knobs = KNOBS | {"monte_carlo_rays": 16}
+    session = BakeSession(**knobs)
+    first = session.bake(scene)
+    assert first.stats["monte_carlo"]["pooled_nodes"] >= 4
+    changed = recoloured(scene, reflectance=scene.reflectance * 0.8, emission=scene.emission * [1.0, 0.5, 2.0])
+    again, fresh = session.bake(changed), bake(changed, **knobs)
+    assert again.stats["resolved"] and not again.stats["monte_carlo"]["traced"]
     assert relative_rms(again, fresh) <= fresh.stats["error_estimate"]["total"]
     assert_same_colours(session.bake(scene), first)
 
