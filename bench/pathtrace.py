@@ -11,7 +11,7 @@ event estimation, Pharr, Jakob and Humphreys, "Physically Based Rendering", 4th 
   counts too; the two estimates of the same light are weighted by the power heuristic;
 * from the third bounce on, Russian roulette: the path survives with s = max_c of its throughput
   (at least MIN_SURVIVAL), divided by s if it does; at most MAX_BOUNCES bounces (the light of
-  longer paths, below rho_max^MAX_BOUNCES of the total, is left out: 0.999^65,536 = 4e-29 for the
+  longer paths, below rho_max^MAX_BOUNCES of the total, is left out: 0.999^65,536 = 3e-29 for the
   OBJ reader's brightest surfaces, where 256 left out up to 77 %: a furnace of 0.999 read 0.225 of
   its light, and the light carried hundreds of bounces under a cup 3 mm above a table, both of
   0.999, half of it);

@@ -136,7 +136,8 @@ class Visibility:
 
     @property
     def bytes(self) -> int:
-        """About the memory held: the traced scenes built so far and the per-triangle arrays."""
+        """About the memory held: its traced scenes (each faster one once its first query built
+        it) and the per-triangle arrays."""
         traced = {id(part): part for part in (self._scene, self._occluders, self._inner, self._see_through) if part}
         arrays = (self.triangle_normals, self.two_sided, self.owners, self.unit_plane_offsets, self.enclosing,
                   self.opacity, self.opaque, self.coplanar_overlaps, *self.coplanar_pairs)

@@ -98,16 +98,14 @@ REGATHER_MAX_RAYS = 256
 SPARSE_HITS = 32
 PATCH_RAYS = 9
 # The random streams of the gathers (with the seed and the block): at the nodes, at the nodes
-# gathered again, at the patches.
+# gathered again, at the patches, and the probes that find crevices (``node_pools``).
 NODE_STREAM, AGAIN_STREAM, PATCH_STREAM, POOL_STREAM = 2, 3, 4, 5
-# The rays' stratified points of the unit square are drawn on a grid of UV_STEPS per side and kept as
-# uint16 where points gather together, to make their directions again when the rays are read.
-UV_STEPS = 1 << 16
 # The nodes of a vertex whose normals differ by at most POOL_ANGLE (degrees) gather together, unless
 # more than POOL_NEAR_SHARE of the POOL_PROBES rays of one of them land nearer than POOL_PARALLAX
 # times the nodes' distance apart: there each node sees its own few millimetres (a crevice), and
-# the light changes across them.
+# the light changes across them. A pool holds at most POOL_SIZE nodes (a fan's apex: several).
 POOL_ANGLE = 30.0
+POOL_SIZE = 16
 POOL_PROBES = 16
 POOL_PARALLAX = 20.0
 POOL_NEAR_SHARE = 0.25
@@ -120,7 +118,8 @@ class Gathered:
     """light (n, C): the estimate of G = sum_j F(x, j) V_j at each point of the patches' values V
     (``GatherHits.read``); standard_error (n, C): its standard error, from the spread of the
     point's samples; near_change (n, C) or None: what reading the near rays' patches where they
-    landed changed in ``light``, sum over them of (that reading - V_j) / K (None: not read so)."""
+    landed changed in ``light``, sum over them of (that reading - V_j) / K, or of a pool's k K rays
+    weighed (``_pooled``; None: not read so)."""
 
     light: np.ndarray
     standard_error: np.ndarray
@@ -213,11 +212,12 @@ class GatherHits:
         the order ``order``.
     bounces : the ``Bounce`` of the rays followed from where these landed close, then from where
         those landed close, and so on (empty where none are: ``gather_hits``'s ``near``).
-    blocks : (b + 1,) the first point of each block of work, and n.
+    blocks : (b + 1,) the first row of each block of work, and n.
     order : (n,) the points as given of the rows (None: as given).
-    pools, normals, uv : where points gather together, the pool of each row (n,) (rows of one pool
-        are consecutive, in one block), its normal (n, 3) and its rays' points of the unit square
-        (n, K, 2) uint16 (their directions: ``_unit_square``); None where each gathers alone.
+    pools, normals, stream : where points gather together, the pool of each row (n,) (rows of one
+        pool are consecutive, in one block), its normal (n, 3), and the seed, stream and first
+        index of the rays' random numbers, from which their directions are made again
+        (``_ray_points``); None where each gathers alone.
     """
 
     patches: np.ndarray
@@ -226,7 +226,7 @@ class GatherHits:
     order: np.ndarray | None = None
     pools: np.ndarray | None = None
     normals: np.ndarray | None = None
-    uv: np.ndarray | None = None
+    stream: tuple[int, int, int] | None = None
 
     def read(self, far: np.ndarray, opacity: np.ndarray | None = None, own: np.ndarray | None = None,
              reflectance: np.ndarray | None = None, radiosity: np.ndarray | None = None,
@@ -304,7 +304,9 @@ class GatherHits:
                 samples.reshape(-1, samples.shape[2])[ray] = reading
             if self.pools is None:
                 return replace(Gathered.of(samples), near_change=changes.mean(axis=1) if self.bounces else None)
-            pooled = _pooled(self.pools[start:stop], self.normals[start:stop], self.uv[start:stop], samples, changes)
+            seed, stream, first = self.stream
+            points, _ = _ray_points(seed, stream, first + start, stop - start, rays)
+            pooled = _pooled(self.pools[start:stop], self.normals[start:stop], points, samples, changes)
             return pooled if self.bounces else replace(pooled, near_change=None)
 
         parts = list(parallel.map_ordered(block, range(len(blocks) - 1)))
@@ -319,9 +321,10 @@ def _pooled(pools: np.ndarray, normals: np.ndarray, uv: np.ndarray, samples: np.
             changes: np.ndarray) -> Gathered:
     """The estimates of consecutive points that gather together (the module's docstring): the
     rows of one ``pools`` (m,) label each weigh every ray of all, by the balance heuristic of their
-    ``normals`` (m, 3) over the rays' directions (``uv`` (m, K, 2)), the ``samples`` (m, K, C)
-    read there, with the standard error of the weighed samples' mean, and, as ``near_change``,
-    the ``changes`` (m, K, C) that reading where they landed made."""
+    ``normals`` (m, 3) over the rays' directions (from their points ``uv`` (m, K, 2) of the unit
+    square), the ``samples`` V (m, K, C) read there: G_i = sum_r w_i V_r / (k K), with the
+    standard error of that mean, SE^2 = (sum_r w_i^2 V_r^2 - k K G_i^2) / ((k K - 1) k K), and,
+    as ``near_change``, the ``changes`` (m, K, C) that reading where they landed made, weighed alike."""
     count, rays, channels = samples.shape
     starts = np.flatnonzero(np.r_[True, pools[1:] != pools[:-1]])
     sizes = np.diff(np.r_[starts, count])
@@ -336,7 +339,7 @@ def _pooled(pools: np.ndarray, normals: np.ndarray, uv: np.ndarray, samples: np.
                 light[members], error[members] = alone.light, alone.standard_error
                 change[members] = changes[members].mean(axis=1)
                 continue
-            directions = cosine_directions(normals[members], _unit_square(uv[members]))
+            directions = cosine_directions(normals[members], uv[members])
             directions = directions.reshape(-1, size * rays, 3)  # (g, k K, 3): a pool's rays
             cosines = np.maximum(np.einsum("gix,grx->gir", normals[members].reshape(-1, size, 3), directions), 0)
             weight = cosines / cosines.mean(axis=1, keepdims=True)  # (g, k, k K); each ray is above its own plane
@@ -351,10 +354,14 @@ def _pooled(pools: np.ndarray, normals: np.ndarray, uv: np.ndarray, samples: np.
     return Gathered(light, error, change)
 
 
-def _unit_square(uv: np.ndarray) -> np.ndarray:
-    """Points of the unit square (..., 2) from ``uv`` (..., 2) uint16: the centres of their cells of
-    a UV_STEPS x UV_STEPS grid."""
-    return (uv + 0.5) / UV_STEPS
+def _ray_points(seed: int, stream: int, index: int, count: int, rays: int) -> tuple[np.ndarray, np.random.Generator]:
+    """(count, rays, 2) the points of the unit square of the cosine-distributed directions of a
+    block of ``count`` points' ``rays`` rays (a perfect square), one in each of their congruent
+    squares (jittered strata), the first numbers of the block's random stream (``seed``,
+    ``stream``, ``index`` of its first point), and that stream, to draw the rest from."""
+    rng = np.random.default_rng([seed, stream, index])
+    cells, side = _strata(rays)
+    return cells[None] + rng.random((count, rays, 2)) / side, rng
 
 
 def _unsorted(rows: np.ndarray, order: np.ndarray) -> np.ndarray:
@@ -397,17 +404,16 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
     the bounce of one ray from where each of those landed nearer than DEEP_HIT times its patch's
     longest edge, and so on, NEAR_BOUNCES bounces at most.
     ``stream``: the random numbers' (``NODE_STREAM``, ``AGAIN_STREAM`` for points gathered a second
-    time: ``noisy_nodes``, ``PATCH_STREAM``), drawn per block of points from the index among all
-    of them of its first, ``first`` that of ``points[0]``. Points of one ``pools`` (n,) label (the
-    nodes of one vertex: ``Discretization.node_vertex``; None: none) gather together (the module's
-    docstring)."""
+    time: ``noisy_nodes``, ``PATCH_STREAM``), drawn per block of points from the index of its
+    first, ``first`` that of ``points[0]``. Points of one ``pools`` (n,) label (the nodes of one
+    vertex: ``node_pools``; None: none) gather together (the module's docstring); the points are
+    then taken in the order of their labels, and a block's index is its first's in that order."""
     order = None
     if pools is not None:
         order = np.argsort(pools, kind="stable")
         points, normals, pools = points[order], normals[order], pools[order]
     blocks = _block_starts(len(points), pools)
     surfaces, emitters = Surfaces(mesh, visibility), Emitters(mesh)
-    cells, side = _strata(rays)
     edges = longest_edges(mesh.patch_corners)
     reach, deep_reach = NEAR_HIT * edges, DEEP_HIT * edges
     index_type = np.int32 if SECOND_RAYS * len(points) * rays <= np.iinfo(np.int32).max else np.int64
@@ -415,14 +421,12 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
     depth = NEAR_BOUNCES if near else 0
     followers = [SECOND_RAYS if rays <= MANY_RAYS else 1] + [1] * (depth - 1)  # each bounce's rays per ray
 
-    def block(index: int) -> tuple[np.ndarray, list[Bounce], np.ndarray]:
+    def block(index: int) -> tuple[np.ndarray, list[Bounce]]:
         start = blocks[index]
-        rng = np.random.default_rng([seed, stream, first + start])
         chosen = slice(start, blocks[index + 1])
         count = len(points[chosen])
-        # jittered strata, on a grid of UV_STEPS per side (uniform within 1 / UV_STEPS)
-        uv = ((cells[None] + rng.random((count, rays, 2)) / side) * UV_STEPS).astype(np.uint16)
-        directions = cosine_directions(normals[chosen], _unit_square(uv))
+        uv, rng = _ray_points(seed, stream, first + start, count, rays)
+        directions = cosine_directions(normals[chosen], uv)
         origins = np.repeat(points[chosen], rays, axis=0)
         patch, landed = surfaces.hit(origins, directions.reshape(-1, 3), np.repeat(normals[chosen], rays, axis=0),
                                      rng)
@@ -436,7 +440,7 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
                                                      followers[level], rng, start + level * len(points))
             bounces.append(replace(bounce, near=(close + offset).astype(index_type)))
             offset = 0  # the deeper bounces' are moved on when the blocks are joined
-        return patches, bounces, uv
+        return patches, bounces
 
     parts = []
     for done, part in enumerate(parallel.map_ordered(block, range(len(blocks) - 1)), 1):
@@ -450,8 +454,7 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
         bounces.append(Bounce.joined(levels, before))
     if pools is None:
         return GatherHits(patches, tuple(bounces), blocks)
-    uv = np.concatenate([part[2] for part in parts]) if parts else np.zeros((0, rays, 2), np.uint16)
-    return GatherHits(patches, tuple(bounces), blocks, order, pools, normals, uv)
+    return GatherHits(patches, tuple(bounces), blocks, order, pools, normals, (seed, stream, first))
 
 
 def _bounce(surfaces: Surfaces, emitters: Emitters, lights: DirectLighting | None, at: np.ndarray,
@@ -525,15 +528,22 @@ def patch_light(hits: np.ndarray, values: np.ndarray, opacity: np.ndarray | None
 
 def pools_of(vertex: np.ndarray, normals: np.ndarray, max_angle: float = POOL_ANGLE) -> np.ndarray:
     """(N,) the pool each node gathers in: nodes of one ``vertex`` (N,) whose unit ``normals``
-    (N, 3) lie within ``max_angle`` (degrees) of the first such node's (by index), which labels it."""
+    (N, 3) lie within ``max_angle`` (degrees) of the first such node's (by index), which labels it,
+    POOL_SIZE at most (the next ones a pool of their own, labelled by its first)."""
     labels = np.full(len(vertex), -1)
     order = np.argsort(vertex, kind="stable")
     limit = np.cos(np.radians(max_angle))
     while (left := order[labels[order] < 0]).size:
         first = np.r_[True, vertex[left][1:] != vertex[left][:-1]]
         lead = left[first][np.cumsum(first) - 1]  # the first node left at each vertex
-        near = np.einsum("ij,ij->i", normals[left], normals[lead]) >= limit
+        near = (np.einsum("ij,ij->i", normals[left], normals[lead]) >= limit) | first
         labels[left[near]] = lead[near]
+    # at most POOL_SIZE nodes a pool: the rest of a large one in pools of their own, in order
+    order = np.lexsort((np.arange(len(labels)), labels))
+    starts = np.r_[True, labels[order][1:] != labels[order][:-1]]
+    rank = np.arange(len(order)) - np.flatnonzero(starts)[np.cumsum(starts) - 1]
+    chunk_lead = order[np.flatnonzero(rank % POOL_SIZE == 0)]
+    labels[order] = chunk_lead[np.cumsum(rank % POOL_SIZE == 0) - 1]
     return labels
 
 
@@ -561,9 +571,10 @@ def node_pools(mesh: Discretization, visibility: Visibility, seed: int = 0) -> n
         rng = np.random.default_rng([seed, POOL_STREAM, start])
         directions = cosine_directions(normals, cells[None] + rng.random((len(points), POOL_PROBES, 2)) / side)
         origins = np.repeat(points, POOL_PROBES, axis=0)
-        patch, landed = surfaces.hit(origins, directions.reshape(-1, 3), np.repeat(normals, POOL_PROBES, axis=0))
-        went = landed - origins
-        near = (patch >= 0) & (np.einsum("ij,ij->i", went, went) < np.repeat(reach[chosen], POOL_PROBES) ** 2)
+        lift = np.repeat(normals, POOL_PROBES, axis=0)
+        patch, landed = surfaces.hit_or_sky(origins, directions.reshape(-1, 3), lift, None)
+        went = landed - origins  # -2: no surface met (-1, the back of a one-sided face, counts)
+        near = (patch != -2) & (np.einsum("ij,ij->i", went, went) < np.repeat(reach[chosen], POOL_PROBES) ** 2)
         return near.reshape(-1, POOL_PROBES).mean(axis=1)
 
     shares = np.concatenate(list(parallel.map_ordered(near_share, range(0, len(shared), POINTS_PER_BLOCK))))

@@ -88,7 +88,7 @@ class Surfaces:
         return patch, points
 
     def hit_or_sky(self, origins: np.ndarray, directions: np.ndarray, lift: np.ndarray,
-                   rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+                   rng: np.random.Generator | None) -> tuple[np.ndarray, np.ndarray]:
         """``hit``, the patch -2 where the ray met no surface at all (it leaves the scene, to the sky)."""
         patch, points, front = self._traced(origins, directions, lift, rng)
         patch[front < 0] = -2
