@@ -539,11 +539,10 @@ def pools_of(vertex: np.ndarray, normals: np.ndarray, max_angle: float = POOL_AN
         near = (np.einsum("ij,ij->i", normals[left], normals[lead]) >= limit) | first
         labels[left[near]] = lead[near]
     # at most POOL_SIZE nodes a pool: the rest of a large one in pools of their own, in order
-    order = np.lexsort((np.arange(len(labels)), labels))
-    starts = np.r_[True, labels[order][1:] != labels[order][:-1]]
-    rank = np.arange(len(order)) - np.flatnonzero(starts)[np.cumsum(starts) - 1]
-    chunk_lead = order[np.flatnonzero(rank % POOL_SIZE == 0)]
-    labels[order] = chunk_lead[np.cumsum(rank % POOL_SIZE == 0) - 1]
+    by_pool = np.argsort(labels, kind="stable")
+    starts = np.r_[True, labels[by_pool][1:] != labels[by_pool][:-1]]
+    leads = (np.arange(len(by_pool)) - np.flatnonzero(starts)[np.cumsum(starts) - 1]) % POOL_SIZE == 0
+    labels[by_pool] = by_pool[leads][np.cumsum(leads) - 1]
     return labels
 
 

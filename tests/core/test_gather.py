@@ -383,3 +383,15 @@ def test_the_nodes_of_a_vertex_gather_alone_where_a_surface_lies_millimetres_awa
         pools[name] = final_gather.node_pools(mesh, rays_of(mesh))[ridge]
     assert len(np.unique(pools["open"])) == 2
     assert len(np.unique(pools["covered"])) == len(np.unique(pools["backed"])) == 4
+
+
+def test_a_pool_holds_at_most_pool_size_nodes_and_a_node_without_a_normal_pools_alone():
+    """40 nodes of one vertex facing one way (a fan's apex) make pools of POOL_SIZE = 16, 16 and 8,
+    each labelled by its first node; at a second vertex a node whose normal is zero (which no
+    angle joins, and which once kept ``pools_of`` looping) pools alone, its two neighbours
+    together."""
+    vertex = np.r_[np.zeros(40, int), np.ones(3, int)]
+    normals = np.tile([0.0, 0.0, 1.0], (43, 1))
+    normals[41] = 0.0
+    labels = final_gather.pools_of(vertex, normals)
+    np.testing.assert_array_equal(labels, np.r_[np.repeat([0, 16, 32], [16, 16, 8]), [40, 41, 40]])
