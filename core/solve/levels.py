@@ -270,6 +270,8 @@ class _Levels:
                 "radiosity": radiosity, "emission": mesh.patch_emission[:, : self.channels],
                 "sky": None if sky is None else sky[1], "lights": intensities}
         gathered = self._final_gather(mesh, visibility, read, stages)
+        if visibility is not engine.visibility:  # the refined patches' own, beside the engine's
+            self.extra_bytes += visibility.bytes
         return radiosity, state.radiosity[mesh.patch_count:] + gathered.light, gathered
 
     def _pools(self, mesh, visibility: Visibility) -> np.ndarray | None:
