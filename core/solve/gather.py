@@ -40,7 +40,7 @@ heuristic of multiple importance sampling (Veach and Guibas 1995),
 
 unbiased since every direction node i sees is one its own rays are drawn in, but for the few
 millimetres between the nodes: not where a surface lies that close (a crevice). On Sponza as
-Blender shades it flat (2.9 nodes per vertex) one bake's noise fell from 2.77 to 2.22 % of the
+Blender shades it flat (2.9 nodes per vertex) one bake's noise fell from 2.77 to 2.27 % of the
 light (docs/notes/experiments.md, "The nodes of one vertex gather together").
 
 The patches that few particles reached read their own light by a gather too (``patch_hits``,
