@@ -7,7 +7,6 @@ their radiosity, so it is independent of the solvers and of the bake's knobs but
 
 from __future__ import annotations
 
-import hashlib
 import math
 import time
 from dataclasses import dataclass
@@ -15,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bench import machine
 from bench.metrics import rms
 from bench.pathtrace import path_traced
 from core import BakeSettings, Scene
@@ -43,12 +43,10 @@ class CornerAnswer:
 
 
 def tracer_digest() -> str:
-    """The first 12 hex digits of a SHA-1 over this module's and bench/pathtrace.py's sources: which
-    path tracer an answer came from (a cached answer of another is traced again)."""
-    digest = hashlib.sha1()
-    for source in (Path(__file__), Path(__file__).with_name("pathtrace.py")):
-        digest.update(source.read_bytes())
-    return digest.hexdigest()[:12]
+    """``machine.sources_digest`` of this module and bench/pathtrace.py: which path tracer an answer
+    came from (a cached answer of another is traced again)."""
+    here = Path(__file__)
+    return machine.sources_digest((here, here.with_name("pathtrace.py")), here.parent)
 
 
 def path_traced_corners(scene: Scene, patch_size: float, count: int, paths: int) -> CornerAnswer:

@@ -15,6 +15,7 @@ import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Iterable
 
 from bench.paths import REPO
 from bench.runner import value_in_fresh_process
@@ -49,14 +50,20 @@ def closing(header: dict[str, str]) -> dict[str, str]:
     return end
 
 
-def core_digest() -> str:
-    """The first 12 hex digits of a SHA-1 over the paths and contents of core/**/*.py: which core
-    a bake ran (the repository may change while a study runs)."""
+def sources_digest(paths: Iterable[Path], root: Path) -> str:
+    """The first 12 hex digits of a SHA-1 over the ``paths`` (relative to ``root``) and contents of
+    source files: which code a result came from."""
     digest = hashlib.sha1()
-    core = REPO / "core"
-    for path in sorted(core.rglob("*.py")):
-        digest.update(str(path.relative_to(core)).encode() + b"\0" + path.read_bytes())
+    for path in paths:
+        digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())
     return digest.hexdigest()[:12]
+
+
+def core_digest() -> str:
+    """``sources_digest`` of core/**/*.py: which core a bake ran (the repository may change while a
+    study runs)."""
+    core = REPO / "core"
+    return sources_digest(sorted(core.rglob("*.py")), core)
 
 
 def free_cores() -> float:

@@ -546,6 +546,11 @@ def pools_of(vertex: np.ndarray, normals: np.ndarray, max_angle: float = POOL_AN
     return labels
 
 
+def pooled(labels: np.ndarray) -> np.ndarray:
+    """(N,) bool: the nodes whose pool (``labels`` (N,), ``pools_of``) holds others too."""
+    return np.bincount(labels, minlength=len(labels))[labels] > 1
+
+
 def node_pools(mesh: Discretization, visibility: Visibility, seed: int = 0) -> np.ndarray | None:
     """(N,) the pool each node gathers in (``pools_of``), each node alone in a pool where POOL_PROBES
     stratified cosine-distributed rays of one of its nodes find a surface near (the constants'
@@ -553,7 +558,7 @@ def node_pools(mesh: Discretization, visibility: Visibility, seed: int = 0) -> n
     if mesh.node_vertex is None:
         return None
     labels = pools_of(mesh.node_vertex, mesh.node_normals)
-    shared = np.flatnonzero(np.bincount(labels, minlength=len(labels))[labels] > 1)
+    shared = np.flatnonzero(pooled(labels))
     if not len(shared):
         return labels
     apart = np.zeros(len(labels))  # an upper bound of the distance between the nodes of each pool

@@ -300,6 +300,7 @@ class _Levels:
                     lights=direct, pools=self._pools(mesh, visibility)),
                 timer="monte_carlo")
         first = self.kept["gather_hits"].read(**read)
+        pools = self.kept.get("pools")
         if "regathered" not in self.kept:
             variance = first.standard_error ** 2  # each channel's share: the same for light scaled per channel
             channel_total = variance.sum(axis=0)
@@ -311,14 +312,13 @@ class _Levels:
                 "final gather again where it is noisy", (0.8, 1.0), lambda report: gather.gather_hits(
                     mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes], more, seed, report,
                     stream=gather.AGAIN_STREAM, near=near, lights=direct,
-                    pools=None if mesh.node_vertex is None else self._pools(mesh, visibility)[nodes]),
+                    pools=None if pools is None else pools[nodes]),
                 timer="monte_carlo")
             self.kept["regathered"] = nodes, hits
         nodes, hits = self.kept["regathered"]
         self.stats["monte_carlo"]["regathered_nodes"] = len(nodes)
-        pools = self.kept.get("pools")
         if pools is not None:
-            self.stats["monte_carlo"]["pooled_nodes"] = int((np.bincount(pools, minlength=len(pools))[pools] > 1).sum())
+            self.stats["monte_carlo"]["pooled_nodes"] = int(gather.pooled(pools).sum())
         if hits is None:
             return first
         second = hits.read(**read)
