@@ -4,7 +4,8 @@ system, and the receiver nodes where colours are read (``nodes``), in one ``Disc
 Patches are the input triangles, first cut along the lines where other surfaces meet them
 (``contacts``), split regularly into congruent sub-triangles no longer than the patch size; the
 back of a two-sided triangle is a second set of patches facing the other way. An emitter is split
-finer, so that its light is sampled from at least MIN_LIGHT_PIECES pieces.
+finer, so that its light is sampled from at least MIN_LIGHT_PIECES pieces; one that reflects
+nothing, coarser, to about that many.
 """
 
 from __future__ import annotations
@@ -31,7 +32,10 @@ MAX_LIGHT_DIVISIONS = 4
 # An emitter (a connected set of emitting triangles) is split finer than the patch size until it
 # has MIN_LIGHT_PIECES patches, unless the emitters so split would then be more than this
 # share of the patches (many small lights, or a scene that is mostly light): the split is bounded
-# by the scene, not by its number of lights.
+# by the scene, not by its number of lights. One that reflects nothing is split coarser than the
+# patch size, to about MIN_LIGHT_PIECES patches: its radiosity is its emission everywhere, so its
+# patches only sample its light, and the shots from each cost rays at every receiver (Sponza's sky
+# quad: 50 patches of 4 rays -> 18, the shots 6.0 -> 3.0 s, the same error; docs/notes/experiments.md).
 MAX_EMITTER_SHARE = 0.25
 # Triangles (or panels) whose longest edge is below this share of the patch size are not cut along
 # contact lines, but cut the larger ones (``contacts.pieces``).
@@ -173,7 +177,7 @@ def _patches(scene: Scene, patch_size: float | None, cut_contacts: bool, hidden_
     piece_degenerate = zero_area[piece_triangle] | degenerate(pieces)
     divisions = _divisions(pieces, piece_degenerate, patch_size)
     if patch_size is not None:
-        divisions *= _emitter_divisions(scene, corners, zero_area, piece_triangle, divisions)
+        divisions = _emitter_divisions(scene, corners, zero_area, piece_triangle, divisions)
     _check_patch_count(divisions, patch_size)
     front = _split_triangles(pieces, divisions)
     patch_triangle = piece_triangle[front["triangle"]]
@@ -232,14 +236,16 @@ def _check_patch_count(divisions: np.ndarray, patch_size: float | None) -> None:
 
 def _emitter_divisions(scene: Scene, corners: np.ndarray, zero_area: np.ndarray, piece_triangle: np.ndarray,
                        divisions: np.ndarray) -> np.ndarray:
-    """(pieces,) int: how many times more to divide each piece's edges: for the pieces of an
-    emitter that ``divisions`` make n patches, light_divisions(n); 1 elsewhere, and 1
-    everywhere if the emitters so split would then be more than MAX_EMITTER_SHARE of the
-    patches. An emitter is a connected set of emitting triangles (sharing a vertex)."""
-    factor = np.ones(len(piece_triangle), dtype=np.int64)
+    """(pieces,) int: ``divisions`` (by the patch size), those of each emitter's pieces changed so
+    that it has about MIN_LIGHT_PIECES patches. An emitter that ``divisions`` make n patches,
+    fewer than that, is divided light_divisions(n) times more (none is if the emitters so split
+    would then be more than MAX_EMITTER_SHARE of the patches); one that reflects nothing and makes
+    more is divided ceil(d sqrt(MIN_LIGHT_PIECES / n)) times where d were asked, which keeps at
+    least MIN_LIGHT_PIECES patches. An emitter is a connected set of emitting triangles (sharing
+    a vertex)."""
     emitting = np.flatnonzero(scene.emission.any(axis=1) & ~zero_area)
     if len(emitting) == 0:
-        return factor
+        return divisions
     weld = weld_corners(corners[emitting], scene.extent)
     count = len(emitting)
     # triangles and vertices as one graph: a triangle joined to its corners' vertices
@@ -249,11 +255,19 @@ def _emitter_divisions(scene: Scene, corners: np.ndarray, zero_area: np.ndarray,
     piece_emitter = emitter[piece_triangle]
     chosen = np.flatnonzero(piece_emitter >= 0)
     emitter_patches = np.bincount(piece_emitter[chosen], weights=divisions[chosen] ** 2.0, minlength=count)
+    factor = np.ones(len(piece_triangle), dtype=np.int64)
     factor[chosen] = light_divisions(emitter_patches)[piece_emitter[chosen]]
     patches = divisions.astype(np.float64) ** 2 * factor**2
     if patches[factor > 1].sum() > MAX_EMITTER_SHARE * patches.sum():
         factor[:] = 1
-    return factor
+    result = divisions * factor
+    reflecting = np.bincount(emitter[emitting], weights=scene.reflectance[emitting].sum(axis=1), minlength=count) > 0
+    coarser = np.flatnonzero((emitter_patches > MIN_LIGHT_PIECES) & ~reflecting)
+    scale = np.ones(count)
+    scale[coarser] = np.sqrt(MIN_LIGHT_PIECES / emitter_patches[coarser])
+    black = chosen[scale[piece_emitter[chosen]] < 1]
+    result[black] = np.ceil(divisions[black] * scale[piece_emitter[black]]).astype(np.int64)
+    return result
 
 
 def _split_triangles(corners: np.ndarray, divisions: np.ndarray) -> dict[str, np.ndarray]:

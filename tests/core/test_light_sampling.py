@@ -82,18 +82,21 @@ def penumbra_scene(light_as_mesh: bool) -> tuple[Scene, int]:
     return scene, floor_count
 
 
-@pytest.mark.parametrize("light_as_mesh, rms_tolerance, max_tolerance", [
+@pytest.mark.parametrize("light_as_mesh, patch_size, rms_tolerance, max_tolerance", [
     # 18 patches of 16 rays, 4 probes first: a patch the shadow's edge crosses between its
     # probes counts as wholly seen or hidden; measured 1.3 % RMS, 3.9 % at worst (in 2 patches,
     # as the patch size asks: 6.9 % and 41 %)
-    (True, 0.02, 0.06),
+    (True, 1.0, 0.02, 0.06),
+    # the patch size would make the black light 128 patches: it is split into 18 all the same
+    # (measured 1.4 % RMS, 4.9 % at worst)
+    (True, 0.1, 0.02, 0.06),
     # 18 pieces of 16 rays, every ray cast: measured 0.54 % RMS, 1.7 % at worst (in its 2
     # triangles: 3.7 % and 11 %)
-    (False, 0.009, 0.026),
+    (False, 1.0, 0.009, 0.026),
 ])
-def test_a_small_light_casts_its_exact_penumbra(light_as_mesh, rms_tolerance, max_tolerance):
+def test_a_small_light_casts_its_exact_penumbra(light_as_mesh, patch_size, rms_tolerance, max_tolerance):
     scene, floor_count = penumbra_scene(light_as_mesh)
-    result = bake(scene, patch_size=1.0)  # the light is 0.5 wide: one patch per triangle
+    result = bake(scene, patch_size=patch_size)  # the light is 0.5 wide: at 1.0 one patch per triangle
     corners = scene.vertices[scene.triangles[:floor_count]]
     penumbra = (np.abs(corners[..., :2]) < LIGHT + 2 * BLOCKER).all(axis=-1)
     truth = exact_floor(corners)[penumbra]
@@ -111,6 +114,25 @@ def test_a_small_emitter_is_split_into_enough_patches_a_large_one_is_not():
     mesh = discretize(Scene(vertices, triangles, np.full((6, 3), 0.5), emission), patch_size=1.0)
     patches = np.bincount(mesh.patch_triangle, minlength=6)
     np.testing.assert_array_equal(patches, [36, 36, 36, 36, SQUARE_SPLIT // 2, SQUARE_SPLIT // 2])
+
+
+def test_a_black_emitter_is_split_into_about_min_light_pieces_a_reflecting_one_as_the_patch_size_asks():
+    """A 4 x 4 emitting panel of 2 triangles, whose diagonal (5.7) the patch size 0.25 divides 23
+    times: 2 x 23^2 = 1,058 patches. Black, it is split ceil(23 sqrt(16 / 1,058)) = 3 times per
+    edge, into 18 patches, the fewest of its split into squares over MIN_LIGHT_PIECES; reflecting,
+    its patches show the light it reflects and it keeps them."""
+    floor = quad([-2, -2, 0], [4, 0, 0], [0, 4, 0])
+    panel = quad([-2, -2, 3], [0, 4, 0], [4, 0, 0])  # faces down
+    vertices, triangles = merge(floor, panel)
+    emission = np.zeros((4, 3))
+    emission[2:] = 1.0
+    for panel_reflectance, panel_patches in ((0.0, 2 * 3**2), (0.5, 2 * 23**2)):
+        reflectance = np.full((4, 3), 0.5)
+        reflectance[2:] = panel_reflectance
+        mesh = discretize(Scene(vertices, triangles, reflectance, emission), patch_size=0.25)
+        patches = np.bincount(mesh.patch_triangle, minlength=4)
+        assert patches[2:].sum() == panel_patches >= MIN_LIGHT_PIECES
+        np.testing.assert_array_equal(patches[:2], [23**2, 23**2])
 
 
 def small_lights(count: int) -> tuple[Scene, int]:
