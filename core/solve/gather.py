@@ -83,10 +83,13 @@ DEEP_HIT = 0.25
 # The lights' light is kept at each such ray, 4 bytes per light: beyond this many lights the near
 # field reads the near patches instead.
 MAX_NEAR_LIGHTS = 8
-# The final gather is made again with REGATHER_FACTOR times the rays at the nodes whose neighbours'
-# gathers hold REGATHER_SHARE of the variance (``noisy_nodes``), while that is at most
-# REGATHER_MAX_RAYS rays: on Sponza, from 64 rays, most of the gain of 4 times the rays everywhere for
-# half its time; from 256, 0.1 % for 20 s more (docs/notes/experiments.md, "An adaptive final gather").
+# The final gather is made again at the nodes whose neighbours' gathers hold REGATHER_SHARE of the
+# variance (``noisy_nodes``), with the smallest square of rays that brings a node's own to about
+# REGATHER_FACTOR times the first gather's, while that square is at most REGATHER_MAX_RAYS; the two
+# estimates are averaged by their rays (``regather_rays``): on Sponza, from 64 rays, most of the gain
+# of 4 times the rays everywhere for half its time; from 256, 0.1 % for 20 s more (docs/notes/
+# experiments.md, "An adaptive final gather"); 196 rays added to the first 64 took what 256 replacing
+# them did, for 2 s less ("A black emitter's patches; the gather again added to the first").
 REGATHER_SHARE = 0.9
 REGATHER_FACTOR = 4
 REGATHER_MAX_RAYS = 256
@@ -154,6 +157,13 @@ class Gathered:
         return Gathered(np.concatenate([part.light for part in parts]),
                         np.concatenate([part.standard_error for part in parts]),
                         np.concatenate([part.near_change for part in parts]) if changed else None)
+
+
+def regather_rays(rays: int) -> int:
+    """The rays of the gather made again at a noisy node (``noisy_nodes``): the smallest square of at
+    least (REGATHER_FACTOR - 1) x ``rays``, or 0 (none made) where that is over REGATHER_MAX_RAYS."""
+    more = int(np.ceil(np.sqrt((REGATHER_FACTOR - 1) * rays))) ** 2
+    return more if more <= REGATHER_MAX_RAYS else 0
 
 
 def check_gather_rays(count: int) -> int:

@@ -284,8 +284,9 @@ class _Levels:
         """The final gather at the nodes (N, C) of what the shots left, ``read`` the arguments of
         ``gather.GatherHits.read`` (far: X, what the patches add beyond their shots; near: their
         radiosity where the rays landed, less their shots), with its standard error: made again
-        with REGATHER_FACTOR times the rays (up to REGATHER_MAX_RAYS) at the ``gather.noisy_nodes``,
-        whose first estimate the second replaces. Where the rays land, and the nodes gathered
+        with ``gather.regather_rays`` at the ``gather.noisy_nodes``, whose two estimates are
+        averaged weighted by their rays (the choice of the nodes is independent of their own
+        first estimate, so the mean stays unbiased). Where the rays land, and the nodes gathered
         again, are kept for a re-solve."""
         rays, seed = self.settings.monte_carlo_rays, self.settings.seed
         # an environment, area lights or many lights would be read as the patches' means where the
@@ -305,9 +306,9 @@ class _Levels:
             variance = first.standard_error ** 2  # each channel's share: the same for light scaled per channel
             channel_total = variance.sum(axis=0)
             shares = variance / np.where(channel_total > 0, channel_total, 1.0)
-            more = rays * gather.REGATHER_FACTOR
+            more = gather.regather_rays(rays)
             nodes = gather.noisy_nodes(shares.sum(axis=1), mesh.corner_node, gather.REGATHER_SHARE) \
-                if more <= gather.REGATHER_MAX_RAYS else np.zeros(0, dtype=np.int64)
+                if more else np.zeros(0, dtype=np.int64)
             hits = None if len(nodes) == 0 else stages.run(
                 "final gather again where it is noisy", (0.8, 1.0), lambda report: gather.gather_hits(
                     mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes], more, seed, report,
@@ -322,10 +323,14 @@ class _Levels:
         if hits is None:
             return first
         second = hits.read(**read)
-        light, standard_error = first.light.copy(), first.standard_error.copy()
-        light[nodes], standard_error[nodes] = second.light, second.standard_error
-        change = None
-        if first.near_change is not None:
-            change = first.near_change.copy()
-            change[nodes] = second.near_change
-        return gather.Gathered(light, standard_error, change)
+        share = hits.patches.shape[1] / (rays + hits.patches.shape[1])  # the second's weight
+
+        def averaged(first_values: np.ndarray, second_values: np.ndarray) -> np.ndarray:
+            values = first_values.copy()
+            values[nodes] = (1 - share) * first_values[nodes] + share * second_values
+            return values
+
+        standard_error = first.standard_error.copy()
+        standard_error[nodes] = np.hypot((1 - share) * first.standard_error[nodes], share * second.standard_error)
+        change = None if first.near_change is None else averaged(first.near_change, second.near_change)
+        return gather.Gathered(averaged(first.light, second.light), standard_error, change)

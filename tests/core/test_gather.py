@@ -13,7 +13,7 @@ from bench.pathtrace import path_traced
 from core import PointLight, Scene, bake
 from core.mesh.discretize import discretize
 from core.solve import gather as final_gather
-from core.solve.gather import gather, noisy_nodes
+from core.solve.gather import REGATHER_FACTOR, REGATHER_MAX_RAYS, gather, noisy_nodes, regather_rays
 from core.transport.analytic import point_to_triangle
 from tests.core.scenes import box, grid, merge, quad, uniform
 from tests.core.test_form_factor_closed_forms import c11
@@ -132,6 +132,15 @@ def test_nodes_are_gathered_again_by_their_neighbours_variance_not_their_own():
     np.testing.assert_array_equal(noisy_nodes(variance, corner_node, 0.5), [4, 5])
     np.testing.assert_array_equal(noisy_nodes(variance, corner_node, 1.0), [1, 2, 4, 5, 6])
     assert len(noisy_nodes(np.zeros(7), corner_node, 0.9)) == 0
+
+
+@pytest.mark.parametrize("rays, more", [(1, 4), (16, 49), (64, 196), (81, 256), (100, 0), (1024, 0)])
+def test_the_gather_again_adds_the_smallest_square_of_rays_that_brings_a_node_to_four_times_its_first(
+        rays, more):
+    """(REGATHER_FACTOR - 1) x 64 = 192 -> 14^2 = 196; 3 x 100 = 300 -> 18^2 = 324, over
+    REGATHER_MAX_RAYS: none."""
+    assert (REGATHER_FACTOR, REGATHER_MAX_RAYS) == (4, 256)
+    assert regather_rays(rays) == more
 
 
 def test_a_closed_box_of_uniform_value_gathers_exactly_that_value():
