@@ -296,11 +296,12 @@ class _Levels:
                 and len(direct.lights) <= gather.MAX_NEAR_LIGHTS)
         if "gather_hits" not in self.kept:
             self.kept["gather_hits"] = stages.run(
-                "final gather", (0.5, 0.8), lambda report: gather.gather_hits(
+                "final gather", (0.5, 0.75), lambda report: gather.gather_hits(
                     mesh, visibility, mesh.node_points, mesh.node_normals, rays, seed, report, near=near,
                     lights=direct, pools=self._pools(mesh, visibility)),
                 timer="monte_carlo")
-        first = self.kept["gather_hits"].read(**read)
+        first = stages.run("reading the final gather", (0.75, 0.8), lambda _report: self.kept["gather_hits"].read(
+            **read), timer="monte_carlo")
         pools = self.kept.get("pools")
         if "regathered" not in self.kept:
             variance = first.standard_error ** 2  # each channel's share: the same for light scaled per channel
@@ -310,7 +311,7 @@ class _Levels:
             nodes = gather.noisy_nodes(shares.sum(axis=1), mesh.corner_node, gather.REGATHER_SHARE) \
                 if more else np.zeros(0, dtype=np.int64)
             hits = None if len(nodes) == 0 else stages.run(
-                "final gather again where it is noisy", (0.8, 1.0), lambda report: gather.gather_hits(
+                "final gather again where it is noisy", (0.8, 0.97), lambda report: gather.gather_hits(
                     mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes], more, seed, report,
                     stream=gather.AGAIN_STREAM, near=near, lights=direct,
                     pools=None if pools is None else pools[nodes]),
@@ -322,7 +323,8 @@ class _Levels:
             self.stats["monte_carlo"]["pooled_nodes"] = int(gather.pooled(pools).sum())
         if hits is None:
             return first
-        second = hits.read(**read)
+        second = stages.run("reading the final gather again", (0.97, 1.0), lambda _report: hits.read(**read),
+                            timer="monte_carlo")
         share = hits.patches.shape[1] / (rays + hits.patches.shape[1])  # the second's weight
 
         def averaged(first_values: np.ndarray, second_values: np.ndarray) -> np.ndarray:
