@@ -283,7 +283,8 @@ class GatherHits:
             those landed, read from the last bounce up."""
             spans = []
             for bounce in self.bounces:
-                first, last = np.searchsorted(bounce.near, [low, high])
+                # bounds of near's dtype: a list would be int64, and near (int32) copied to match at every call
+                first, last = np.searchsorted(bounce.near, np.array([low, high], dtype=bounce.near.dtype))
                 spans.append((first, last))
                 low, high = first * bounce.patches.shape[1], last * bounce.patches.shape[1]
             arriving = None
@@ -300,7 +301,7 @@ class GatherHits:
                     patch = met.reshape(-1)[followed]
                     values.reshape(-1, values.shape[2])[followed] = \
                         share.reshape(-1)[followed, None] * emitted[patch] + scale[patch] * arriving
-                arriving = values.mean(axis=1) + bounce.lamp_weight[first:last, None] * lamps[bounce.lamp[first:last]]
+                arriving = _mean_of_rays(values) + bounce.lamp_weight[first:last, None] * lamps[bounce.lamp[first:last]]
                 if lights is not None and len(lights):
                     arriving += bounce.light_factors[first:last].astype(np.float64) @ lights
             return arriving, spans[0]
@@ -333,6 +334,15 @@ class GatherHits:
             return gathered
         return Gathered(*(None if rows is None else _unsorted(rows, self.order)
                           for rows in (gathered.light, gathered.standard_error, gathered.near_change)))
+
+
+def _mean_of_rays(values: np.ndarray) -> np.ndarray:
+    """(m, C) the mean over the k (few) rays of ``values`` (m, k, C), summed ray by ray: several
+    times faster than ``mean(axis=1)`` over so short an axis."""
+    total = values[:, 0].copy()
+    for ray in range(1, values.shape[1]):
+        total += values[:, ray]
+    return total / values.shape[1]
 
 
 def _pooled(pools: np.ndarray, normals: np.ndarray, uv: np.ndarray, samples: np.ndarray,
