@@ -35,7 +35,8 @@ MAX_LIGHT_DIVISIONS = 4
 # by the scene, not by its number of lights. One that reflects nothing is split coarser than the
 # patch size, to about MIN_LIGHT_PIECES patches: its radiosity is its emission everywhere, so its
 # patches only sample its light, and the shots from each cost rays at every receiver (Sponza's sky
-# quad: 50 patches of 4 rays -> 18, the shots 6.0 -> 3.0 s, the same error; docs/notes/experiments.md).
+# quad: 50 patches of 4 rays -> 18, the shots 6.0 -> 3.0 s, the same error; docs/notes/experiments.md,
+# "Sponza's time by stage").
 MAX_EMITTER_SHARE = 0.25
 # Triangles (or panels) whose longest edge is below this share of the patch size are not cut along
 # contact lines, but cut the larger ones (``contacts.pieces``).

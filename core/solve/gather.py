@@ -26,8 +26,8 @@ interpolants of the patch's corner colours (a cut piece of a triangle has none):
 where Monte Carlo carries the light (docs/notes/experiments.md, "A second gather where the rays
 land close").
 
-The rays of their own from the points where one node's rays landed close (17 points of 4 rays on
-average at 64 rays, most on the same few surfaces) are drawn as one set: a rank-1 lattice of all
+The rays of their own from the points where one node's rays landed close (on Sponza 17 points of
+4 rays on average at 64 rays, most on the same few surfaces) are drawn as one set: a rank-1 lattice of all
 of them, shifted at random (``_lattice_points``), so that together they cover the directions as
 evenly as strata would; each ray stays uniform, and the estimate unbiased. On the breakfast room
 a bake's error fell by 0.23 points on average, 7 of 8 bakes lower (docs/notes/experiments.md,
@@ -68,7 +68,7 @@ from ..mesh.discretize import Discretization
 from ..rays.visibility import Visibility
 from ..transport.direct import DirectLighting
 from ..util import parallel
-from ..util.geometry import cosine_directions, longest_edges, uniform_points
+from ..util.geometry import GOLDEN, cosine_directions, longest_edges, uniform_points
 from ..util.progress import Report, quiet
 from .emitters import Emitters
 from .montecarlo import Surfaces
@@ -96,7 +96,8 @@ MAX_NEAR_LIGHTS = 8
 # estimates are averaged by their rays (``regather_rays``): on Sponza, from 64 rays, most of the gain
 # of 4 times the rays everywhere for half its time; from 256, 0.1 % for 20 s more (docs/notes/
 # experiments.md, "An adaptive final gather"); 196 rays added to the first 64 took what 256 replacing
-# them did, for 2 s less ("A black emitter's patches; the gather again added to the first").
+# them did, for 2 s less ("Sponza's time by stage; a black emitter's patches; the gather again added
+# to the first").
 REGATHER_SHARE = 0.9
 REGATHER_FACTOR = 4
 REGATHER_MAX_RAYS = 256
@@ -121,7 +122,6 @@ POOL_PARALLAX = 20.0
 POOL_NEAR_SHARE = 0.25
 # Rays times nodes weighed at once where the nodes of a vertex gather together (bounds a block's memory).
 POOLED_PER_CHUNK = 1 << 20
-_GOLDEN = (np.sqrt(5) - 1) / 2  # the lattice's generator (``_lattice_points``)
 
 
 @dataclass(frozen=True)
@@ -532,7 +532,7 @@ def _lattice_points(groups: np.ndarray, rays: int, rng: np.random.Generator) -> 
     index = np.arange(rays)[None] * size + rank  # (m, k)
     shift = rng.random((len(starts), 2))[group]
     return np.stack([((index + 0.5) / (size * rays) + shift[:, None, 0]) % 1.0,
-                     (index * _GOLDEN + shift[:, None, 1]) % 1.0], axis=2)
+                     (index * GOLDEN + shift[:, None, 1]) % 1.0], axis=2)
 
 
 def _strata(count: int) -> tuple[np.ndarray, int]:

@@ -19,10 +19,9 @@ import functools
 import numpy as np
 
 from ..rays.visibility import RAY_EPSILON, Visibility
-from ..util.geometry import barycentric_grid, longest_edges
+from ..util.geometry import GOLDEN, barycentric_grid, longest_edges
 from .analytic import point_to_triangle
 
-_GOLDEN = (np.sqrt(5) - 1) / 2
 # An emitting patch whose centroid is closer to a point than CLOSE_REACH of its longest edge is
 # sampled from there with CLOSE_RAYS rays, none skipped by the probes: a few samples of a large
 # source decide most of a point's direct light, and a blocker near the point (a moulding's lip)
@@ -48,7 +47,7 @@ def stratified_samples(patch_corners: np.ndarray, count: int, seed: int,
     grid, cells = barycentric_grid(check_ray_count(count))
     strata = grid[cells]  # (count, 3 corners, 3 barycentric)
     base = np.arange(count)
-    base = np.stack([(base + 0.5) / count, (base * _GOLDEN) % 1.0], axis=1)
+    base = np.stack([(base + 0.5) / count, (base * GOLDEN) % 1.0], axis=1)
     dtype = patch_corners.dtype
     if rotation is None:
         rotation = np.random.default_rng(seed).random((len(patch_corners), 1, 2))

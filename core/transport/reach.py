@@ -22,14 +22,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..rays.visibility import Visibility
-from ..util.geometry import cosine_directions
+from ..util.geometry import GOLDEN, cosine_directions
 from .raycast import stratified_samples
 
 REACH_RAYS = 256
 # Each source's strata are shifted by the fractional parts of its index times these (the
 # additive recurrence of Roberts' R4 sequence), so that they follow from its index alone.
 _IRRATIONALS = np.array([0.8566748838545029, 0.7338918566271997, 0.6287067210378086, 0.5385972572236101])
-_GOLDEN = (np.sqrt(5) - 1) / 2
 PAIRING = 77  # prime to the number of strata (not a multiple of 7 or 11): a permutation of them
 # Where a ray lands stands for SPREAD / sqrt(REACH_RAYS) radians of directions about it (a
 # cosine-weighted stratum is about sqrt(pi / REACH_RAYS) across, more near the horizon). Wider
@@ -51,7 +50,7 @@ def reach_boxes(corners: np.ndarray, normals: np.ndarray, names: np.ndarray, vis
     count = len(corners)
     side = int(round(np.sqrt(rays)))
     lattice = (np.stack(np.meshgrid(np.arange(side), np.arange(side)), axis=-1).reshape(-1, 2) + 0.5) / side
-    shift = (np.asarray(names, dtype=np.float64)[:, None] * _IRRATIONALS + seed * _GOLDEN) % 1.0  # (k, 4)
+    shift = (np.asarray(names, dtype=np.float64)[:, None] * _IRRATIONALS + seed * GOLDEN) % 1.0  # (k, 4)
     origins = stratified_samples(corners, rays, seed, rotation=shift[:, None, :2]).reshape(-1, 3)
     # point i goes along direction stratum (PAIRING i + offset) mod rays: another one for each point
     pairing = (PAIRING * np.arange(rays) + (shift[:, :1] * rays).astype(np.int64)) % rays  # (k, rays)

@@ -9,6 +9,9 @@ import numpy as np
 # extent, counts as on it (float32 coordinates resolve about 6e-8 of it).
 ENCLOSING_PAIRS = 1 << 25
 ENCLOSING_TOLERANCE = 1e-7
+# The golden ratio's fractional part: the generator of the rank-1 lattices of sample points
+# (i / n, i GOLDEN mod 1), evenly spread for any n.
+GOLDEN = (np.sqrt(5) - 1) / 2
 
 
 def triangle_corners(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
