@@ -154,7 +154,8 @@ class BakeSession:
         settings = with_monte_carlo(settings, mesh.patch_count, mesh.node_count)
         engine = stages.run("preparing rays", span["rays"], lambda _report: FormFactorEngine(
             mesh, method, settings.hemicube_resolution, settings.rays_per_form_factor, settings.seed,
-            probing=settings.probe_rays), timer="setup")
+            probing=settings.probe_rays, light_means=settings.solver == "progressive" and bool(
+                settings.monte_carlo_rays)), timer="setup")
         direct = DirectLighting(scene.lights, scene.sky, engine.visibility, settings.rays_per_form_factor,
                                 settings.seed, scene.environment)
         kept = _Kept(scene, settings, panels)

@@ -10,6 +10,12 @@ blocked sample counts for what it would have contributed:
 
 Sample positions are fixed per source patch for a seed (one point per stratum, the strata
 shifted by a per-patch Cranley-Patterson rotation), so results do not depend on batching.
+
+Close to an emitting source the kernel's 1 / r^2 makes a few samples weigh for all (a point
+under a large sky quad, a ceiling beside a lamp), so there the samples are directions uniform in
+the solid angle the source subtends (``geometry.solid_angle_directions``), each weighted by its
+cosine at the receiver alone, V = sum_s cos_s v_s / sum_s cos_s: the weights no longer vary by
+orders of magnitude, and the visible share converges as the share of a hemisphere's rays would.
 """
 
 from __future__ import annotations
@@ -19,15 +25,28 @@ import functools
 import numpy as np
 
 from ..rays.visibility import RAY_EPSILON, Visibility
-from ..util.geometry import GOLDEN, barycentric_grid, longest_edges
+from ..util.geometry import GOLDEN, barycentric_grid, longest_edges, solid_angle_directions
 from .analytic import point_to_triangle
 
 # An emitting patch whose centroid is closer to a point than CLOSE_REACH of its longest edge is
-# sampled from there with CLOSE_RAYS rays, none skipped by the probes: a few samples of a large
-# source decide most of a point's direct light, and a blocker near the point (a moulding's lip)
-# hides part of it (the tops of a gallery under a large sky triangle: docs/notes/experiments.md).
+# sampled from there with CLOSE_RAYS rays uniform in its solid angle, none skipped by the probes:
+# the source fills much of the point's view, and a blocker near the point (a moulding's lip) hides
+# part of it (the tops of a gallery under a large sky triangle: docs/notes/experiments.md, and
+# "The emitters' light at the nodes" for the solid angle).
 CLOSE_REACH = 0.75
 CLOSE_RAYS = 64
+# Farther off, an emitting patch is sampled with EMITTER_RAYS rays, all cast, from the points
+# asked about ``finely`` (a bake's nodes, whose colours show its direct light; the patches' light
+# only feeds the bounces): on Sponza, under its sky quad, the nodes' direct light from 4 rays per
+# piece was 1.3 % of the light from the exact, from 16 rays 0.7 % (docs/notes/experiments.md, "The
+# emitters' light at the nodes").
+EMITTER_RAYS = 16
+
+
+def _lattice(count: int) -> np.ndarray:
+    """(count, 2) the rank-1 lattice ((i + 1/2) / count, i GOLDEN mod 1) of the unit square."""
+    index = np.arange(count)
+    return np.stack([(index + 0.5) / count, (index * GOLDEN) % 1.0], axis=1)
 
 
 def check_ray_count(count: int) -> int:
@@ -46,8 +65,7 @@ def stratified_samples(patch_corners: np.ndarray, count: int, seed: int,
     result has the dtype of ``patch_corners``."""
     grid, cells = barycentric_grid(check_ray_count(count))
     strata = grid[cells]  # (count, 3 corners, 3 barycentric)
-    base = np.arange(count)
-    base = np.stack([(base + 0.5) / count, (base * GOLDEN) % 1.0], axis=1)
+    base = _lattice(count)
     dtype = patch_corners.dtype
     if rotation is None:
         rotation = np.random.default_rng(seed).random((len(patch_corners), 1, 2))
@@ -87,8 +105,8 @@ class RayCaster:
         (``probe_samples``: 4 of 16, 16 of 64) are cast first and the rest only where those
         disagree: about half the time of a bake, but a shadow edge that crosses a source between
         the probes is missed (a blocker's form factor 1 % off in tests/core/test_occlusion.py).
-        ``emitting`` (P,) bool: the patches sampled with CLOSE_RAYS from close by (when more than
-        ``rays``)."""
+        ``emitting`` (P,) bool: the patches sampled with CLOSE_RAYS from close by, and with
+        EMITTER_RAYS from the points asked about finely (each when more than ``rays``)."""
         self.corners = patch_corners
         self.normals = patch_normals
         self.owners = patch_owners
@@ -100,12 +118,16 @@ class RayCaster:
         # disc term A / (pi S) of the weight, in the unit space of the visibility module
         self._unit_disc = (patch_areas * visibility.scale**2 / (np.pi * rays)).astype(np.float32)
         self._probe, self._rest = probe_samples(rays) if probing else (np.arange(rays), np.zeros(0, dtype=np.int64))
-        close = np.zeros(len(patch_corners), dtype=bool) if emitting is None or CLOSE_RAYS <= rays else emitting
-        self._close_slot = np.full(len(patch_corners), -1)
-        self._close_slot[close] = np.arange(np.count_nonzero(close))
+        emitting = np.zeros(len(patch_corners), dtype=bool) if emitting is None else emitting
+        self._emitter_slot = np.full(len(patch_corners), -1)
+        self._emitter_slot[emitting] = np.arange(np.count_nonzero(emitting))
+        self._close, self._fine = CLOSE_RAYS > rays, EMITTER_RAYS > rays
         self._close_reach2 = (CLOSE_REACH * longest_edges(patch_corners)) ** 2
-        self._close_samples = stratified_samples(unit_corners[close], CLOSE_RAYS, seed + 1).astype(np.float32)
-        self._close_disc = (patch_areas[close] * visibility.scale**2 / (np.pi * CLOSE_RAYS)).astype(np.float32)
+        self._close_uv = (_lattice(CLOSE_RAYS)[None] + np.random.default_rng(seed + 1).random(
+            (np.count_nonzero(emitting), 1, 2))) % 1.0  # (E, CLOSE_RAYS, 2) per source, for ``solid_angle_directions``
+        self._emitter_unit_corners = unit_corners[emitting]  # where the directions are made: a scaled scene's alike
+        self._fine_samples = stratified_samples(unit_corners[emitting], EMITTER_RAYS, seed + 2).astype(np.float32)
+        self._fine_disc = (patch_areas[emitting] * visibility.scale**2 / (np.pi * EMITTER_RAYS)).astype(np.float32)
         self._unit_probes = np.ascontiguousarray(self._unit_samples[:, self._probe])  # (P, probes, 3)
         # sources with another face in their plane over them (``contacts.coplanar_overlaps``)
         # need the first-hit rule below; for the others a ray stopped short of their plane tells
@@ -118,13 +140,16 @@ class RayCaster:
 
     @property
     def sample_bytes(self) -> int:
-        return self._unit_samples.nbytes + self._unit_probes.nbytes + self._close_samples.nbytes
+        return (self._unit_samples.nbytes + self._unit_probes.nbytes + self._close_uv.nbytes
+                + self._fine_samples.nbytes + self._emitter_unit_corners.nbytes)
 
-    def grid_form_factors(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray) -> np.ndarray:
+    def grid_form_factors(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray,
+                          finely: np.ndarray | None = None) -> np.ndarray:
         """(m, k) form factors from every point (m, 3) facing normals (m, 3) to every patch of
-        ``sources`` (k,). The pairs that cannot see each other (the point behind the source's
-        plane, or the source below the point's horizon: most pairs, in a room) are found by
-        matrix products, and only the others are computed pair by pair."""
+        ``sources`` (k,), ``finely`` as for ``form_factors``. The pairs that cannot see each
+        other (the point behind the source's plane, or the source below the point's horizon: most
+        pairs, in a room) are found by matrix products, and only the others are computed pair by
+        pair."""
         corners = self.corners[sources]
         ahead = points @ self.normals[sources].T > np.einsum("kx,kx->k", corners[:, 0], self.normals[sources])
         heights = normals @ corners.reshape(-1, 3).T  # (m, 3k): corner c of source j at 3 j + c
@@ -132,7 +157,7 @@ class RayCaster:
         above = highest > np.einsum("mx,mx->m", points, normals)[:, None]
         receivers, chosen = np.nonzero(ahead & above)
         result = np.zeros((len(points), len(sources)))
-        result[receivers, chosen] = self.form_factors(points, normals, receivers, sources[chosen])
+        result[receivers, chosen] = self.form_factors(points, normals, receivers, sources[chosen], finely)
         return result
 
     def faces(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray) -> np.ndarray:
@@ -144,20 +169,27 @@ class RayCaster:
         return ahead & (highest > np.einsum("nx,nx->n", points, normals))
 
     def form_factors(self, points: np.ndarray, normals: np.ndarray, receivers: np.ndarray,
-                     sources: np.ndarray) -> np.ndarray:
+                     sources: np.ndarray, finely: np.ndarray | None = None, close_by: bool = True) -> np.ndarray:
         """(n,) form factors from points[receivers] (facing normals[receivers]) to patches
-        ``sources``, pairwise; points (m, 3), normals (m, 3), receivers and sources (n,) int."""
-        close = np.flatnonzero(self._close_slot[sources] >= 0)
-        if len(close):
-            offset = points[receivers[close]] - self.corners[sources[close]].mean(axis=1)
-            close = close[np.einsum("kx,kx->k", offset, offset) < self._close_reach2[sources[close]]]
-        if len(close) == 0:
+        ``sources``, pairwise; points (m, 3), normals (m, 3), receivers and sources (n,) int;
+        ``finely`` (m,) bool: the points that read the emitting sources with EMITTER_RAYS rays
+        (None: none); ``close_by``: whether the other points read the emitting sources close to
+        them with CLOSE_RAYS too (False: with ``rays``, as the many points of a patch's mean do)."""
+        emitting = np.flatnonzero(self._emitter_slot[sources] >= 0)
+        fine = emitting[:0] if finely is None else emitting[finely[receivers[emitting]]]
+        close = emitting[:0]
+        if self._close and (asked := emitting if close_by else fine).size:
+            offset = points[receivers[asked]] - self.corners[sources[asked]].mean(axis=1)
+            close = asked[np.einsum("kx,kx->k", offset, offset) < self._close_reach2[sources[asked]]]
+        fine = np.setdiff1d(fine, close, assume_unique=True) if self._fine else emitting[:0]
+        if len(close) == 0 and len(fine) == 0:
             return self._probed_form_factors(points, normals, receivers, sources)
         result = np.empty(len(receivers))
-        far = np.ones(len(receivers), dtype=bool)
-        far[close] = False
-        result[far] = self._probed_form_factors(points, normals, receivers[far], sources[far])
+        rest = np.ones(len(receivers), dtype=bool)
+        rest[close], rest[fine] = False, False
+        result[rest] = self._probed_form_factors(points, normals, receivers[rest], sources[rest])
         result[close] = self._close_form_factors(points, normals, receivers[close], sources[close])
+        result[fine] = self._fine_form_factors(points, normals, receivers[fine], sources[fine])
         return result
 
     def _probed_form_factors(self, points, normals, receivers, sources) -> np.ndarray:
@@ -188,16 +220,37 @@ class RayCaster:
 
     def _close_form_factors(self, points, normals, receivers, sources) -> np.ndarray:
         """(n,) form factors to emitting sources close to their points (CLOSE_REACH), from
-        their CLOSE_RAYS samples, every one cast."""
+        CLOSE_RAYS directions uniform in each source's solid angle, every one cast, each weighted
+        by its cosine at the point (the module's docstring)."""
+        unoccluded = point_to_triangle(points[receivers], normals[receivers], self.corners[sources])
+        lit = np.flatnonzero(unoccluded > 0)
+        receivers, sources = receivers[lit], sources[lit]
+        normal = self.visibility.to_unit_directions(normals[receivers])
+        origin = self.visibility.to_unit(points[receivers]) + RAY_EPSILON * normal
+        slot = self._emitter_slot[sources]
+        unit_points = (points[receivers] - self.visibility.center) * self.visibility.scale
+        directions, offset = solid_angle_directions(unit_points, self._emitter_unit_corners[slot], self._close_uv[slot])
+        offset -= RAY_EPSILON * normal[:, None, :]  # from the origin, RAY_EPSILON off the surface
+        # from a point this close, many directions aim at the source's edges, along a wall that
+        # meets it (a room's corner): a watertight scene stops the rays that graze the seam
+        blocked = self._blocked(origin, offset, self._cos_source(offset, sources), sources, watertight=True)
+        weight = np.maximum((directions @ normal[:, :, None])[..., 0], 0).astype(np.float64)
+        total = weight.sum(axis=1)
+        seen = (weight * (1.0 - blocked)).sum(axis=1)  # blocked: bool, or the share see-through surfaces stop
+        unoccluded[lit] *= np.where(total > 0, seen / np.where(total > 0, total, 1), 1.0)
+        return unoccluded
+
+    def _fine_form_factors(self, points, normals, receivers, sources) -> np.ndarray:
+        """(n,) form factors to emitting sources from their EMITTER_RAYS samples, every one cast."""
         normal = self.visibility.to_unit_directions(normals[receivers])
         origin = self.visibility.to_unit(points[receivers]) + RAY_EPSILON * normal
         unoccluded = point_to_triangle(points[receivers], normals[receivers], self.corners[sources])
         lit = np.flatnonzero(unoccluded > 0)
-        slot = self._close_slot[sources[lit]]
-        offset = self._close_samples[slot] - origin[lit, None, :]
+        slot = self._emitter_slot[sources[lit]]
+        offset = self._fine_samples[slot] - origin[lit, None, :]
         cos_source = self._cos_source(offset, sources[lit])
         blocked = self._blocked(origin[lit], offset, cos_source, sources[lit])
-        unoccluded[lit] *= _weighted_share(offset, normal[lit], cos_source, blocked, self._close_disc[slot])
+        unoccluded[lit] *= _weighted_share(offset, normal[lit], cos_source, blocked, self._fine_disc[slot])
         return unoccluded
 
     def _seen_fraction(self, origin, normal, sources, probed) -> np.ndarray:
@@ -216,16 +269,17 @@ class RayCaster:
         """(k, s) cosine at the source times minus the distance, for ray offsets (k, s, 3)."""
         return (offset @ self._unit_normals[sources][:, :, None])[..., 0]
 
-    def _blocked(self, origin, offset, cos_source, sources) -> np.ndarray:
+    def _blocked(self, origin, offset, cos_source, sources, watertight: bool = False) -> np.ndarray:
         """(k, s) bool: whether the ray from each origin (k, 3) to each of its samples (k, s, 3
-        offsets) is blocked."""
+        offsets) is blocked; ``watertight``: traced so (``Visibility``), for samples that aim
+        at the edges of their sources, not jittered at random over them."""
         rays = offset.shape[1]
         starts, directions = np.repeat(origin, rays, axis=0), offset.reshape(-1, 3)
         across = np.maximum(-cos_source, np.finfo(np.float32).tiny).reshape(-1)
         # stop RAY_EPSILON short of the source's plane, measured across it: a grazing ray then
         # cannot hit its own source through the rounding of the sample onto float32
         # the samples are jittered at random (``stratified_samples``): the faster scene traces them
-        blocked_unit = functools.partial(self.visibility.blocked_unit, jittered=True)
+        blocked_unit = functools.partial(self.visibility.blocked_unit, jittered=not watertight)
         if self.owners is None:  # a light, which may lie beyond the walls
             return blocked_unit(starts, directions, 1 - RAY_EPSILON / across).reshape(-1, rays)
         # from a point of the surfaces to a patch: a wall with everything in front of it cannot block
@@ -237,10 +291,10 @@ class RayCaster:
         blocked[free] = blocked_unit(starts[free], directions[free], 1 - RAY_EPSILON / across[free], between=True)
         chosen = np.flatnonzero(contested)
         blocked[chosen] = self._first_hit_blocked(starts[chosen], directions[chosen], across[chosen],
-                                                  np.repeat(self.owners[sources], rays)[chosen])
+                                                  np.repeat(self.owners[sources], rays)[chosen], watertight)
         return blocked.reshape(-1, rays)
 
-    def _first_hit_blocked(self, starts, directions, across, owners) -> np.ndarray:
+    def _first_hit_blocked(self, starts, directions, across, owners, watertight: bool = False) -> np.ndarray:
         """(n,) bool for rays towards sources of ``owners`` (n,) that another face shares a
         plane with."""
         # reach RAY_EPSILON past the source's plane and look at what the ray meets first: the
@@ -250,7 +304,7 @@ class RayCaster:
         # the solid angle, as they share a hemicube's pixels, instead of both taking all of it);
         # anything else blocks
         visibility = self.visibility
-        first = visibility.first_hit_unit(starts, directions, 1 + RAY_EPSILON / across, jittered=True)
+        first = visibility.first_hit_unit(starts, directions, 1 + RAY_EPSILON / across, jittered=not watertight)
         hit = np.maximum(first, 0)
         blocked = (first >= 0) & (visibility.owners[hit] != owners)
         candidates = np.flatnonzero(blocked)

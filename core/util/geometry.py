@@ -12,6 +12,11 @@ ENCLOSING_TOLERANCE = 1e-7
 # The golden ratio's fractional part: the generator of the rank-1 lattices of sample points
 # (i / n, i GOLDEN mod 1), evenly spread for any n.
 GOLDEN = (np.sqrt(5) - 1) / 2
+# ``solid_angle_directions`` keeps its points at least this share of the way in from each edge:
+# from a point close to a source, many directions aim at its edges, and a ray stops short of the
+# source's plane (``raycast``), so one aimed along a wall that meets the source's edge (a box
+# against another) could stop before the wall.
+INSIDE = 1e-3
 
 
 def triangle_corners(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -143,3 +148,85 @@ def cosine_directions(normals: np.ndarray, uv: np.ndarray) -> np.ndarray:
     frames = orthonormal_frames(normals)
     per_normal = int(np.prod(uv.shape[1:-1]))
     return (local.reshape(len(normals), per_normal, 3) @ frames).reshape(local.shape)
+
+
+def solid_angle_directions(points: np.ndarray, corners: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(k, S, 3) float32 unit directions from ``points`` (k, 3) into triangles ``corners`` (k, 3, 3),
+    uniform in the solid angle each triangle subtends for uniform ``uv`` (k, S, 2) (Arvo,
+    "Stratified sampling of spherical triangles", 1995, as Pharr, Jakob and Humphreys write it,
+    "Physically Based Rendering", 4th ed., 6.5.4: u picks the area of a sub-triangle A' = u A, v
+    a point along its last arc); and (k, S, 3) float32 the offsets from each point to where its
+    directions meet the triangle. The area of the spherical triangle is alpha + beta + gamma - pi,
+    its angles' sum. What is per triangle is computed in float64, what is per sample in float32
+    (to about 1e-6, as rays are traced). The points are kept INSIDE of the way in from each edge
+    (that rounding, where a triangle is seen almost edge-on, would put some outside it)."""
+    a, b, c = (_unit(corners[:, corner] - points) for corner in range(3))
+    n_ab, n_bc, n_ca = _unit(np.cross(a, b)), _unit(np.cross(b, c)), _unit(np.cross(c, a))
+    alpha = _angle(n_ab, -n_ca)
+    spread = _angle(n_bc, -n_ab) + _angle(n_ca, -n_bc) + alpha - np.pi  # the solid angle
+    across_a = _unit(c - np.einsum("kx,kx->k", c, a)[:, None] * a)  # c made orthogonal to a
+    single = np.float32
+    cos_alpha, sin_alpha = (value.astype(single)[:, None] for value in (np.cos(alpha), np.sin(alpha)))
+    a_b = np.einsum("kx,kx->k", a, b).astype(single)[:, None]
+    # A' + pi = pi + u A: its cosine and sine are minus those of u A
+    sub_area = uv[..., 0].astype(single) * spread.astype(single)[:, None]
+    cos_area, sin_area = -np.cos(sub_area), -np.sin(sub_area)
+    sin_phi = sin_area * cos_alpha - cos_area * sin_alpha
+    cos_phi = cos_area * cos_alpha + sin_area * sin_alpha
+    k1, k2 = cos_phi + cos_alpha, sin_phi - sin_alpha * a_b
+    denominator = (k2 * sin_phi + k1 * cos_phi) * sin_alpha
+    denominator[denominator == 0] = np.finfo(single).tiny
+    cos_b = np.clip((k2 + (k2 * cos_phi - k1 * sin_phi) * cos_alpha) / denominator, -1, 1)
+    sin_b = np.sqrt(1 - cos_b * cos_b)
+    a, b, across_a = (vector.astype(single).T[:, :, None] for vector in (a, b, across_a))  # (3, k, 1)
+    arc_end = cos_b * a + sin_b * across_a  # (3, k, S): c' on the arc from a to c
+    along = arc_end[0] * b[0] + arc_end[1] * b[1] + arc_end[2] * b[2]
+    cos_t = 1 - uv[..., 1].astype(single) * (1 - along)
+    sin_t = np.sqrt(np.maximum(1 - cos_t * cos_t, 0))
+    across_b = arc_end - along * b
+    length = np.sqrt(across_b[0] * across_b[0] + across_b[1] * across_b[1] + across_b[2] * across_b[2])
+    across_b *= sin_t / np.where(length > 0, length, 1)
+    directions = cos_t * b + across_b  # (3, k, S)
+    first, second = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    normal = np.cross(first, second)
+    height = np.einsum("kx,kx->k", normal, corners[:, 0] - points)[:, None]
+    normal, to_corner = (vector.astype(single).T[:, :, None] for vector in (normal, corners[:, 0] - points))
+    facing = directions[0] * normal[0] + directions[1] * normal[1] + directions[2] * normal[2]
+    facing[facing == 0] = np.finfo(single).tiny
+    # the barycentric coordinates (1 - s - t, s, t) of where the directions meet the plane, kept
+    # INSIDE of the way from each edge
+    from_corner = directions * (height.astype(single) / facing) - to_corner  # (3, k, S)
+    first_first, first_second, second_second = (np.einsum("kx,kx->k", u, v) for u, v in (
+        (first, first), (first, second), (second, second)))
+    scale = 1 / (first_first * second_second - first_second**2)
+    # s = (|e2|^2 (q . e1) - (e1 . e2) (q . e2)) / det: q dotted with the dual vectors of the edges
+    dual_first, dual_second = ((scale[:, None] * vector).astype(single).T[:, :, None] for vector in (
+        second_second[:, None] * first - first_second[:, None] * second,
+        first_first[:, None] * second - first_second[:, None] * first))
+    s = from_corner[0] * dual_first[0] + from_corner[1] * dual_first[1] + from_corner[2] * dual_first[2]
+    t = from_corner[0] * dual_second[0] + from_corner[1] * dual_second[1] + from_corner[2] * dual_second[2]
+    np.clip(s, INSIDE, 1 - 2 * INSIDE, out=s)
+    np.clip(t, INSIDE, 1 - 2 * INSIDE, out=t)
+    excess = np.maximum((s + t - (1 - INSIDE)) / 2, 0)
+    s -= excess
+    t -= excess
+    first, second = (vector.astype(single).T[:, :, None] for vector in (first, second))
+    offsets = np.empty(s.shape + (3,), dtype=single)
+    for axis in range(3):
+        offsets[..., axis] = to_corner[axis] + s * first[axis] + t * second[axis]
+    return np.moveaxis(directions, 0, 2), offsets
+
+
+def _unit(vectors: np.ndarray) -> np.ndarray:
+    """``vectors`` (..., 3) over their lengths (zero ones left zero)."""
+    length = np.sqrt(np.einsum("...x,...x->...", vectors, vectors))[..., None]
+    return vectors / np.where(length > 0, length, 1.0)
+
+
+def _angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(...,) the angle between unit vectors (..., 3), accurate near 0 and pi (from half the
+    chord, not the dot product's arc cosine)."""
+    dot = np.einsum("...x,...x->...", u, v)
+    chord = np.where((dot < 0)[..., None], u + v, v - u)
+    half = np.arcsin(np.minimum(np.sqrt(np.einsum("...x,...x->...", chord, chord)) / 2, 1.0))
+    return np.where(dot < 0, np.pi - 2 * half, 2 * half)

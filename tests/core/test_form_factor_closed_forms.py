@@ -19,6 +19,7 @@ import pytest
 
 from core import form_factor_matrix
 from core.transport.analytic import point_to_triangle
+from core.util.geometry import GOLDEN, INSIDE, barycentric, solid_angle_directions
 from tests.core.scenes import box, merge, quad
 
 METHODS = ("hemicube", "raycast")
@@ -356,3 +357,43 @@ def test_error_shrinks_with_patch_size(method, coarse, fine):
         # plus the hemicube's aliasing, bound 1/N (hemicube minus ray casting: at most 0.44/N here).
         assert error[size] <= 0.03 * size**2 + (1 / RESOLUTION if method == "hemicube" else 0.0)
     assert error[fine] < error[coarse]
+
+
+def test_directions_uniform_in_a_triangles_solid_angle_integrate_its_form_factor():
+    """``solid_angle_directions`` (Arvo's sampling of spherical triangles): with directions
+    uniform in the solid angle W a triangle subtends (W from Van Oosterom and Strackee's formula,
+    independent of the sampler), W mean(max(0, n . d)) / pi is the form factor, which Lambert's
+    contour formula gives exactly; a 4,096-point rank-1 lattice puts it within 5.4e-4 (measured,
+    500 random triangles and points; bound 2e-3). The directions are unit (float32: 5e-6; bound
+    1e-5) and the offsets meet the triangle where they aim (to 1e-5), but those that rounding or
+    the edges' margin moved in, INSIDE of the way from an edge (under 1 % of them)."""
+    rng = np.random.default_rng(1)
+    count, samples = 500, 4096
+    corners = rng.normal(size=(count, 3, 3))
+    points = rng.normal(size=(count, 3)) * 0.3
+    normals = rng.normal(size=(count, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    facing = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    behind = np.einsum("kx,kx->k", facing, points - corners[:, 0]) < 0
+    corners[behind] = corners[behind][:, ::-1]  # each triangle faces its point
+    index = np.arange(samples)
+    lattice = np.stack([(index + 0.5) / samples, (index * GOLDEN) % 1], axis=1)
+    uv = (lattice[None] + rng.random((count, 1, 2))) % 1
+    directions, offsets = solid_angle_directions(points, corners, uv)
+    relative = corners - points[:, None]
+    length = np.linalg.norm(relative, axis=2)
+    numerator = np.abs(np.einsum("kx,kx->k", relative[:, 0], np.cross(relative[:, 1], relative[:, 2])))
+    denominator = (length.prod(axis=1) + np.einsum("kx,kx->k", relative[:, 0], relative[:, 1]) * length[:, 2]
+                   + np.einsum("kx,kx->k", relative[:, 0], relative[:, 2]) * length[:, 1]
+                   + np.einsum("kx,kx->k", relative[:, 1], relative[:, 2]) * length[:, 0])
+    solid_angle = (2 * np.arctan2(numerator, denominator)) % (2 * np.pi)
+    estimate = solid_angle * np.maximum(np.einsum("ksx,kx->ks", directions, normals), 0).mean(axis=1) / np.pi
+    assert np.abs(estimate - point_to_triangle(points, normals, corners)).max() < 2e-3
+    assert np.abs(np.linalg.norm(directions, axis=2) - 1).max() < 1e-5
+    landed = points[:, None] + offsets
+    weights = barycentric(landed.reshape(-1, 3), np.repeat(corners, samples, axis=0))
+    assert weights.min() > INSIDE / 2
+    aim = np.einsum("ksx,ksx->ks", offsets / np.linalg.norm(offsets, axis=2, keepdims=True), directions)
+    moved = np.flatnonzero(aim.ravel() < 1 - 1e-5)
+    assert len(moved) < 0.01 * aim.size
+    assert (weights[moved].min(axis=1) < 1.01 * INSIDE).all()  # only those kept in from an edge

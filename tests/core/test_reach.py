@@ -69,9 +69,9 @@ def columns(scene: Scene, culled: bool, monkeypatch) -> tuple[np.ndarray, FormFa
     engine = FormFactorEngine(mesh, "raycast", 64, 16, 0, probing=True)
     evaluated, evaluate = [], engine.raycaster.form_factors
 
-    def recorded(points, normals, receivers, sources):
+    def recorded(points, normals, receivers, sources, *rest, **options):
         evaluated.append((points[receivers] + 1e-3 * normals[receivers], sources))
-        return evaluate(points, normals, receivers, sources)
+        return evaluate(points, normals, receivers, sources, *rest, **options)
 
     monkeypatch.setattr(engine.raycaster, "form_factors", recorded)
     sources = np.union1d(np.flatnonzero(mesh.patch_emission.any(axis=1)), np.arange(0, mesh.patch_count, 7))
