@@ -13,8 +13,8 @@ from ..rays.visibility import Visibility
 from ..scene import Scene
 from ..settings import METHODS
 from ..util import parallel, spatial
-from ..util.progress import Report, heartbeat, quiet
 from ..util.geometry import longest_edges
+from ..util.progress import Report, heartbeat, quiet
 from . import hemicube, raycast, reach, receivers
 
 # Rays and point-patch pairs per block: about 0.03 s of work on one core, so that progress is
