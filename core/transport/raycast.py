@@ -123,11 +123,12 @@ class RayCaster:
         self._emitter_slot[emitting] = np.arange(np.count_nonzero(emitting))
         self._close, self._fine = CLOSE_RAYS > rays, EMITTER_RAYS > rays
         self._close_reach2 = (CLOSE_REACH * longest_edges(patch_corners)) ** 2
+        close, fine = emitting & self._close, emitting & self._fine  # (none where their rays are not more)
         self._close_uv = (_lattice(CLOSE_RAYS)[None] + np.random.default_rng(seed + 1).random(
-            (np.count_nonzero(emitting), 1, 2))) % 1.0  # (E, CLOSE_RAYS, 2) per source, for ``solid_angle_directions``
-        self._emitter_unit_corners = unit_corners[emitting]  # where the directions are made: a scaled scene's alike
-        self._fine_samples = stratified_samples(unit_corners[emitting], EMITTER_RAYS, seed + 2).astype(np.float32)
-        self._fine_disc = (patch_areas[emitting] * visibility.scale**2 / (np.pi * EMITTER_RAYS)).astype(np.float32)
+            (np.count_nonzero(close), 1, 2))) % 1.0  # (E, CLOSE_RAYS, 2) per source, for ``solid_angle_directions``
+        self._emitter_unit_corners = unit_corners[close]  # where the directions are made: a scaled scene's alike
+        self._fine_samples = stratified_samples(unit_corners[fine], EMITTER_RAYS, seed + 2).astype(np.float32)
+        self._fine_disc = (patch_areas[fine] * visibility.scale**2 / (np.pi * EMITTER_RAYS)).astype(np.float32)
         self._unit_probes = np.ascontiguousarray(self._unit_samples[:, self._probe])  # (P, probes, 3)
         # sources with another face in their plane over them (``contacts.coplanar_overlaps``)
         # need the first-hit rule below; for the others a ray stopped short of their plane tells
