@@ -36,15 +36,18 @@ CAPTURE_RESOLUTION = 8
 # longest edge is over MEAN_REACH times its distance to a light made of surfaces (an emitting
 # patch that reflects nothing; a lower bound of the distance: from the patch's centroid to the
 # light's plane or bounding sphere, the farther) receives the light's shot as the mean over
-# MEAN_POINTS stratified points of it, each read with the rays per form factor, not at its
-# centroid: so close, the light across it is far from linear, and the patch's light feeds every
-# bounce. On Sponza the walls' tops under the sky quad are lit most halfway down: their
-# centroids took in 3.0 % more than the quad sends, which the bounces carried into every corner's
-# indirect light (1.2 % too bright): docs/notes/experiments.md, "The emitters' light at the
-# nodes". The classic solvers keep the centroids, where a closed room's form factors sum to 1
-# and a regular one's are exact (16 points read a face beside the light 2 % off).
+# MEAN_POINTS stratified points of it, each read by MEAN_RAYS directions in the light's solid
+# angle (``raycast.RayCaster.solid_angle_form_factors``; all of a patch's directions one
+# lattice), not at its centroid: so close, the light across it is far from linear, and the
+# patch's light feeds every bounce. On Sponza the walls' tops under the sky quad are lit most
+# halfway down: their centroids took in 3.0 % more than the quad sends, which the bounces carried
+# into every corner's indirect light (1.2 % too bright): docs/notes/experiments.md, "The
+# emitters' light at the nodes". The classic solvers keep the centroids, where a closed room's
+# form factors sum to 1 and a regular one's are exact (16 points read a face beside the light
+# 2 % off).
 MEAN_REACH = 0.25
 MEAN_POINTS = 16
+MEAN_RAYS = 4
 
 
 class FormFactorEngine:
@@ -389,7 +392,7 @@ class FormFactorEngine:
         """Of the pairs of ``patches`` and ``sources`` (n,) each, those (k,) where the source is a
         light (emits, reflects nothing) the patch is close to (MEAN_REACH) and the patch receives
         at its centroid (not partly buried), and the mean over MEAN_POINTS stratified points of
-        each such patch of its form factor to its source (k,)."""
+        each such patch of its form factor to its source, each from MEAN_RAYS directions (k,)."""
         mesh = self.mesh
         centroids = mesh.patch_centroids[patches]
         source_centres = mesh.patch_centroids[sources]
@@ -399,15 +402,18 @@ class FormFactorEngine:
         near = np.flatnonzero((apart * MEAN_REACH < longest_edges(mesh.patch_corners[patches]))
                               & mesh.patch_emission[sources].any(axis=1) & ~mesh.patch_reflectance[sources].any(axis=1)
                               & (self.receiving_points[patches] == centroids).all(axis=1))
-        points = raycast.stratified_samples(mesh.patch_corners[patches[near]], MEAN_POINTS, 0,
-                                            self._mean_rotations[patches[near]]).reshape(-1, 3)
+        rotation = self._mean_rotations[patches[near]]
+        points = raycast.stratified_samples(mesh.patch_corners[patches[near]], MEAN_POINTS, 0, rotation).reshape(-1, 3)
         normals = np.repeat(mesh.patch_normals[patches[near]], MEAN_POINTS, axis=0)
         to = np.repeat(sources[near], MEAN_POINTS)
-        size = self._pairs_per_block()
+        # point k of a patch takes the directions k, k + MEAN_POINTS, ... of one rank-1 lattice
+        directions = raycast.lattice(MEAN_POINTS * MEAN_RAYS).reshape(MEAN_RAYS, MEAN_POINTS, 2).transpose(1, 0, 2)
+        uv = ((directions[None] + rotation[:, :, None, ::-1]) % 1.0).reshape(-1, MEAN_RAYS, 2)
+        size = max(1, self._pairs_per_block() // MEAN_RAYS)
         means = np.concatenate([np.zeros(0), *parallel.map_ordered(
-            lambda start: self.raycaster.form_factors(points[start:start + size], normals[start:start + size],
-                                                      np.arange(len(to[start:start + size])), to[start:start + size],
-                                                      close_by=False),
+            lambda start: self.raycaster.solid_angle_form_factors(
+                points[start:start + size], normals[start:start + size], np.arange(len(to[start:start + size])),
+                to[start:start + size], uv[start:start + size]),
             range(0, len(to), size))]).reshape(-1, MEAN_POINTS).mean(axis=1)
         return near, means
 

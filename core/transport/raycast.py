@@ -43,7 +43,7 @@ CLOSE_RAYS = 64
 EMITTER_RAYS = 16
 
 
-def _lattice(count: int) -> np.ndarray:
+def lattice(count: int) -> np.ndarray:
     """(count, 2) the rank-1 lattice ((i + 1/2) / count, i GOLDEN mod 1) of the unit square."""
     index = np.arange(count)
     return np.stack([(index + 0.5) / count, (index * GOLDEN) % 1.0], axis=1)
@@ -65,7 +65,7 @@ def stratified_samples(patch_corners: np.ndarray, count: int, seed: int,
     result has the dtype of ``patch_corners``."""
     grid, cells = barycentric_grid(check_ray_count(count))
     strata = grid[cells]  # (count, 3 corners, 3 barycentric)
-    base = _lattice(count)
+    base = lattice(count)
     dtype = patch_corners.dtype
     if rotation is None:
         rotation = np.random.default_rng(seed).random((len(patch_corners), 1, 2))
@@ -124,9 +124,8 @@ class RayCaster:
         self._close, self._fine = CLOSE_RAYS > rays, EMITTER_RAYS > rays
         self._close_reach2 = (CLOSE_REACH * longest_edges(patch_corners)) ** 2
         close, fine = emitting & self._close, emitting & self._fine  # (none where their rays are not more)
-        self._close_uv = (_lattice(CLOSE_RAYS)[None] + np.random.default_rng(seed + 1).random(
+        self._close_uv = (lattice(CLOSE_RAYS)[None] + np.random.default_rng(seed + 1).random(
             (np.count_nonzero(close), 1, 2))) % 1.0  # (E, CLOSE_RAYS, 2) per source, for ``solid_angle_directions``
-        self._emitter_unit_corners = unit_corners[close]  # where the directions are made: a scaled scene's alike
         self._fine_samples = stratified_samples(unit_corners[fine], EMITTER_RAYS, seed + 2).astype(np.float32)
         self._fine_disc = (patch_areas[fine] * visibility.scale**2 / (np.pi * EMITTER_RAYS)).astype(np.float32)
         self._unit_probes = np.ascontiguousarray(self._unit_samples[:, self._probe])  # (P, probes, 3)
@@ -142,7 +141,7 @@ class RayCaster:
     @property
     def sample_bytes(self) -> int:
         return (self._unit_samples.nbytes + self._unit_probes.nbytes + self._close_uv.nbytes
-                + self._fine_samples.nbytes + self._emitter_unit_corners.nbytes)
+                + self._fine_samples.nbytes)
 
     def grid_form_factors(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray,
                           finely: np.ndarray | None = None) -> np.ndarray:
@@ -170,18 +169,17 @@ class RayCaster:
         return ahead & (highest > np.einsum("nx,nx->n", points, normals))
 
     def form_factors(self, points: np.ndarray, normals: np.ndarray, receivers: np.ndarray,
-                     sources: np.ndarray, finely: np.ndarray | None = None, close_by: bool = True) -> np.ndarray:
+                     sources: np.ndarray, finely: np.ndarray | None = None) -> np.ndarray:
         """(n,) form factors from points[receivers] (facing normals[receivers]) to patches
         ``sources``, pairwise; points (m, 3), normals (m, 3), receivers and sources (n,) int;
         ``finely`` (m,) bool: the points that read the emitting sources with EMITTER_RAYS rays
-        (None: none); ``close_by``: whether the other points read the emitting sources close to
-        them with CLOSE_RAYS too (False: with ``rays``, as the many points of a patch's mean do)."""
+        (None: none)."""
         emitting = np.flatnonzero(self._emitter_slot[sources] >= 0)
         fine = emitting[:0] if finely is None else emitting[finely[receivers[emitting]]]
         close = emitting[:0]
-        if self._close and (asked := emitting if close_by else fine).size:
-            offset = points[receivers[asked]] - self.corners[sources[asked]].mean(axis=1)
-            close = asked[np.einsum("kx,kx->k", offset, offset) < self._close_reach2[sources[asked]]]
+        if self._close and len(emitting):
+            offset = points[receivers[emitting]] - self.corners[sources[emitting]].mean(axis=1)
+            close = emitting[np.einsum("kx,kx->k", offset, offset) < self._close_reach2[sources[emitting]]]
         fine = np.setdiff1d(fine, close, assume_unique=True) if self._fine else emitting[:0]
         if len(close) == 0 and len(fine) == 0:
             return self._probed_form_factors(points, normals, receivers, sources)
@@ -221,16 +219,25 @@ class RayCaster:
 
     def _close_form_factors(self, points, normals, receivers, sources) -> np.ndarray:
         """(n,) form factors to emitting sources close to their points (CLOSE_REACH), from
-        CLOSE_RAYS directions uniform in each source's solid angle, every one cast, each weighted
-        by its cosine at the point (the module's docstring)."""
+        their CLOSE_RAYS directions (``solid_angle_form_factors``)."""
+        return self.solid_angle_form_factors(points, normals, receivers, sources,
+                                             self._close_uv[self._emitter_slot[sources]])
+
+    def solid_angle_form_factors(self, points: np.ndarray, normals: np.ndarray, receivers: np.ndarray,
+                                 sources: np.ndarray, uv: np.ndarray) -> np.ndarray:
+        """(n,) form factors from points[receivers] to patches ``sources`` (n,), pairwise, from
+        S directions each uniform in the source's solid angle at the points ``uv`` (n, S, 2) of
+        the unit square (``geometry.solid_angle_directions``), every one cast, each weighted by
+        its cosine at the point (the module's docstring)."""
         unoccluded = point_to_triangle(points[receivers], normals[receivers], self.corners[sources])
         lit = np.flatnonzero(unoccluded > 0)
         receivers, sources = receivers[lit], sources[lit]
         normal = self.visibility.to_unit_directions(normals[receivers])
         origin = self.visibility.to_unit(points[receivers]) + RAY_EPSILON * normal
-        slot = self._emitter_slot[sources]
-        unit_points = (points[receivers] - self.visibility.center) * self.visibility.scale
-        directions, offset = solid_angle_directions(unit_points, self._emitter_unit_corners[slot], self._close_uv[slot])
+        # made in the rays' unit space: a scaled scene's alike
+        unit_points, unit_corners = ((values - self.visibility.center) * self.visibility.scale
+                                     for values in (points[receivers], self.corners[sources]))
+        directions, offset = solid_angle_directions(unit_points, unit_corners, uv[lit])
         offset -= RAY_EPSILON * normal[:, None, :]  # from the origin, RAY_EPSILON off the surface
         # from a point this close, many directions aim at the source's edges, along a wall that
         # meets it (a room's corner): a watertight scene stops the rays that graze the seam
