@@ -389,10 +389,10 @@ class FormFactorEngine:
             values[places[near][mine]] = means[mine]
 
     def _means_near_lights(self, patches: np.ndarray, sources: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Of the pairs of ``patches`` and ``sources`` (n,) each, those (k,) where the source is a
-        light (emits, reflects nothing) the patch is close to (MEAN_REACH) and the patch receives
-        at its centroid (not partly buried), and the mean over MEAN_POINTS stratified points of
-        each such patch of its form factor to its source, each from MEAN_RAYS directions (k,)."""
+        """Of the pairs of ``patches`` and lights ``sources`` (n,) each, those (k,) where the patch
+        is close to its light (MEAN_REACH) and receives at its centroid (not partly buried), and
+        the mean over MEAN_POINTS stratified points of each such patch of its form factor to its
+        light, each from MEAN_RAYS directions (k,)."""
         mesh = self.mesh
         centroids = mesh.patch_centroids[patches]
         source_centres = mesh.patch_centroids[sources]
@@ -400,7 +400,6 @@ class FormFactorEngine:
         apart = np.maximum(np.linalg.norm(centroids - source_centres, axis=1) - radii,
                            np.abs(np.einsum("kx,kx->k", centroids - source_centres, mesh.patch_normals[sources])))
         near = np.flatnonzero((apart * MEAN_REACH < longest_edges(mesh.patch_corners[patches]))
-                              & mesh.patch_emission[sources].any(axis=1) & ~mesh.patch_reflectance[sources].any(axis=1)
                               & (self.receiving_points[patches] == centroids).all(axis=1))
         rotation = self._mean_rotations[patches[near]]
         points = raycast.stratified_samples(mesh.patch_corners[patches[near]], MEAN_POINTS, 0, rotation).reshape(-1, 3)
