@@ -194,8 +194,8 @@ class RayCaster:
         rest = np.ones(len(receivers), dtype=bool)
         rest[close], rest[fine] = False, False
         result[rest] = self._probed_form_factors(points, normals, receivers[rest], sources[rest])
-        result[close] = self._close_form_factors(points, normals, receivers[close], sources[close],
-                                                 np.zeros(len(close), bool) if finely is None else finely[receivers[close]])
+        close_finely = np.zeros(len(close), dtype=bool) if finely is None else finely[receivers[close]]
+        result[close] = self._close_form_factors(points, normals, receivers[close], sources[close], close_finely)
         result[fine] = self._fine_form_factors(points, normals, receivers[fine], sources[fine])
         return result
 
