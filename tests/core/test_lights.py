@@ -19,6 +19,7 @@ from core import Scene, bake
 from core.rays.visibility import Visibility
 from core.transport.analytic import point_to_triangle
 from core.transport.direct import DirectLighting
+from core.util.geometry import cosine_directions
 from core.scene.lights import AreaLight, PointLight, SpotLight, SunLight, area_light
 from tests.core.scenes import box, merge, quad
 from tests.core.test_form_factor_closed_forms import b3_anywhere, b12
@@ -357,3 +358,46 @@ def test_a_thin_bar_across_the_sky_keeps_its_shadow():
     errors = [DirectLighting((), np.ones(3), visibility, 16, seed).sampled_factors_at(
         points, normals, lambda _done: None)[0][:, 0, 0] - exact for seed in range(16)]
     assert abs(np.mean(errors)) < 0.001, np.mean(errors)
+
+
+def room_with_a_blind(spacing=0.025, depth=0.03) -> np.ndarray:
+    """(T, 3, 3) a 4 x 4 x 2.5 m room whose wall x = 0 has a 2 x 1.5 m window (y in [-1, 1], z in
+    [0.5, 2]) behind a blind: flat horizontal slats ``depth`` deep every ``spacing``, just inside."""
+    def rectangle(corner, u, v):
+        vertices, triangles = quad(corner, u, v)
+        return vertices[triangles]
+
+    walls = [rectangle([0, -2, 0], [0, 0, 0.5], [0, 4, 0]), rectangle([0, -2, 2], [0, 0, 0.5], [0, 4, 0]),
+             rectangle([0, -2, 0.5], [0, 0, 1.5], [0, 1, 0]), rectangle([0, 1, 0.5], [0, 0, 1.5], [0, 1, 0]),
+             rectangle([0, -2, 0], [4, 0, 0], [0, 4, 0]), rectangle([0, -2, 2.5], [0, 4, 0], [4, 0, 0]),
+             rectangle([4, -2, 0], [0, 4, 0], [0, 0, 2.5]),
+             rectangle([0, -2, 0], [4, 0, 0], [0, 0, 2.5]), rectangle([0, 2, 0], [0, 0, 2.5], [4, 0, 0])]
+    slats = [rectangle([0.03 - depth / 2, -1, height], [depth, 0, 0], [0, 2, 0])
+             for height in np.arange(0.5 + spacing / 2, 2.0, spacing)]
+    return np.concatenate(walls + slats)
+
+
+def test_the_sky_through_a_blind_is_read_without_beating_against_its_slats():
+    """Points on the wall facing a window behind a blind of flat slats 3 cm deep every 2.5 cm see
+    the sky through every stratum of the window only in part, in bands as regular as the slats.
+    A look samples such strata once in each cell of a 4 x 4 sub-lattice (``_looked``): a lattice
+    shifted as one (the same point of every cell) beats against the slats, and a point's reading
+    spread 7.5 % of its light (G = 0.048) from seed to seed; jittered, a point at random in each
+    cell, 3.5 %. The truth is a plain Monte Carlo count of 2^20 cosine-distributed directions per
+    point (0.4 % of noise). Over 8 points and 24 seeds the mean reading is within 4 standard errors
+    of it, and its spread under 5 % of the light (the spread's own uncertainty is about 5 % of it)."""
+    visibility = Visibility(room_with_a_blind())
+    count = 8
+    points = np.stack([np.full(count, 3.99), np.linspace(-0.6, 0.6, count), np.linspace(0.9, 1.5, count)], axis=1)
+    normals = np.tile([-1.0, 0, 0], (count, 1))
+    uv = np.random.default_rng(5).random((1, 1 << 20, 2))
+    lighting = DirectLighting((), np.ones(3), visibility, 16, 0)
+    truth = np.array([lighting._unblocked(point[None], normal[None], cosine_directions(normal[None], uv), None,
+                                          jittered=False).mean() for point, normal in zip(points, normals)])
+    readings = np.array([DirectLighting((), np.ones(3), visibility, 16, seed).sampled_factors_at(
+        points, normals, lambda _done: None)[0][:, 0, 0] for seed in range(24)])
+    spread = np.sqrt(readings.var(axis=0, ddof=1).mean()) / truth.mean()
+    variance = readings.var(axis=0, ddof=1).sum() / len(readings) + (truth * (1 - truth)).sum() / uv.shape[1]
+    standard_error = np.sqrt(variance) / count
+    assert abs((readings - truth).mean()) < 4 * standard_error, ((readings - truth).mean(), standard_error)
+    assert spread < 0.05, spread
