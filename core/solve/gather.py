@@ -52,7 +52,12 @@ light (docs/notes/experiments.md, "The nodes of one vertex gather together").
 
 The patches that few particles reached read their own light by a gather too (``patch_hits``,
 ``patch_light``): X_p = U_p + rho_p sum_q F(p, q) X_q over stratified points of p, in place of
-their pool's mean (``montecarlo.pools``), which is unbiased only over the whole pool.
+their pool's mean (``montecarlo.pools``), which is unbiased only over the whole pool. Their rays
+that land close are followed as the nodes' are (by one ray each, then bounce by bounce): the
+pools' means are not the light of the few millimetres such a ray sees either. On the breakfast
+room a saucer under a cup read a sixteenth of the light path tracing finds where the cup's rays
+land on it, its 9 rays having met the cup's foot at the mean of a pool of darker faces turned the
+same way (docs/notes/experiments.md, "The sky through a blind").
 
 The hits are geometry only: a re-solve reads them again with other colours.
 """
@@ -73,7 +78,11 @@ from ..util.progress import Report, quiet
 from .emitters import Emitters
 from .montecarlo import Surfaces
 
-POINTS_PER_BLOCK = 1 << 11  # points per block of work on the thread pool
+# Points per block of work on the thread pool, and more where each casts fewer rays than
+# RAYS_PER_BLOCK / POINTS_PER_BLOCK (a patch's points cast one each), so that a block's rays
+# outweigh its steps in Python and the threads keep busy.
+POINTS_PER_BLOCK = 1 << 11
+RAYS_PER_BLOCK = 1 << 17
 # A ray that lands nearer than NEAR_HIT times its patch's longest edge is read by SECOND_RAYS rays
 # from where it landed, or by one in a gather of more than MANY_RAYS rays, whose number averages
 # their noise (the choices measured on Sponza: docs/notes/experiments.md, "A second gather where the
@@ -105,7 +114,8 @@ REGATHER_MAX_RAYS = 256
 # each of as many stratified points of it (``patch_hits``, ``patch_light``), not by its pool: on
 # Sponza, against path tracing at such patches, the pools read 0.28 to 1.13 times the light on
 # average, such a gather 1.01 to 1.09 (docs/notes/experiments.md, "A gather at the patches the
-# particles seldom reach", which also has 4 and 16 rays).
+# particles seldom reach", which also has 4 and 16 rays; with their close landings followed, 4
+# rays left the breakfast room 0.5 points worse: "The sky through a blind").
 SPARSE_HITS = 32
 PATCH_RAYS = 9
 # The random streams of the gathers (with the seed and the block): at the nodes, at the nodes
@@ -399,10 +409,11 @@ def _unsorted(rows: np.ndarray, order: np.ndarray) -> np.ndarray:
     return result
 
 
-def _block_starts(count: int, pools: np.ndarray | None = None) -> np.ndarray:
-    """(b + 1,) the first point of each block of about POINTS_PER_BLOCK of ``count`` points, and
-    ``count``; with ``pools`` (count,) sorted labels, each block starting where a pool does."""
-    starts = np.arange(0, count, POINTS_PER_BLOCK)
+def _block_starts(count: int, pools: np.ndarray | None = None, rays: int = RAYS_PER_BLOCK) -> np.ndarray:
+    """(b + 1,) the first point of each block of about max(POINTS_PER_BLOCK, RAYS_PER_BLOCK / ``rays``)
+    of ``count`` points of ``rays`` rays each, and ``count``; with ``pools`` (count,) sorted labels,
+    each block starting where a pool does."""
+    starts = np.arange(0, count, max(POINTS_PER_BLOCK, RAYS_PER_BLOCK // max(rays, 1)))
     if pools is not None and count:
         pool_starts = np.flatnonzero(np.r_[True, pools[1:] != pools[:-1]])
         found = np.searchsorted(pool_starts, starts)
@@ -422,13 +433,14 @@ def _padded(values: np.ndarray, opacity: np.ndarray | None, outside: np.ndarray 
 def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
                 rays: int, seed: int = 0, report: Report = quiet, stream: int = NODE_STREAM,
                 near: bool = True, lights: DirectLighting | None = None, first: int = 0,
-                pools: np.ndarray | None = None) -> GatherHits:
+                pools: np.ndarray | None = None, second_rays: int | None = None) -> GatherHits:
     """Where ``rays`` (a perfect square) cosine-distributed rays from each of ``points`` (n, 3)
     facing unit ``normals`` (n, 3) stop (from one uniform point in each of the rays congruent
     squares of the unit square: jittered strata; through see-through surfaces by chance,
     ``Surfaces.hit``), and with ``near``, the ``Bounce`` from where each that landed nearer than
-    NEAR_HIT times its patch's longest edge did: SECOND_RAYS rays of its own (one beyond MANY_RAYS
-    rays), an emitting patch sampled (``emitters``) and the light of ``lights``' lights there; then
+    NEAR_HIT times its patch's longest edge did: ``second_rays`` rays of its own (None: SECOND_RAYS,
+    one beyond MANY_RAYS rays), an emitting patch sampled (``emitters``) and the light of
+    ``lights``' lights there; then
     the bounce of one ray from where each of those landed nearer than DEEP_HIT times its patch's
     longest edge, and so on, NEAR_BOUNCES bounces at most.
     ``stream``: the random numbers' (``NODE_STREAM``, ``AGAIN_STREAM`` for points gathered a second
@@ -440,14 +452,17 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
     if pools is not None:
         order = np.argsort(pools, kind="stable")
         points, normals, pools = points[order], normals[order], pools[order]
-    blocks = _block_starts(len(points), pools)
+    blocks = _block_starts(len(points), pools, rays)
     surfaces, emitters = Surfaces(mesh, visibility), Emitters(mesh)
     edges = longest_edges(mesh.patch_corners)
     reach, deep_reach = NEAR_HIT * edges, DEEP_HIT * edges
-    index_type = np.int32 if SECOND_RAYS * len(points) * rays <= np.iinfo(np.int32).max else np.int64
+    index_type = np.int32 if max(SECOND_RAYS, second_rays or 0) * len(points) * rays <= np.iinfo(np.int32).max \
+        else np.int64
     light_count = 0 if lights is None else len(lights.lights)
     depth = NEAR_BOUNCES if near else 0
-    followers = [SECOND_RAYS if rays <= MANY_RAYS else 1] + [1] * (depth - 1)  # each bounce's rays per ray
+    if second_rays is None:
+        second_rays = SECOND_RAYS if rays <= MANY_RAYS else 1
+    followers = [second_rays] + [1] * (depth - 1)  # each bounce's rays per ray
 
     def block(index: int) -> tuple[np.ndarray, list[Bounce]]:
         start = blocks[index]
@@ -551,30 +566,26 @@ def gather(mesh: Discretization, visibility: Visibility, points: np.ndarray, nor
 
 
 def patch_hits(mesh: Discretization, visibility: Visibility, patches: np.ndarray, rays: int = PATCH_RAYS,
-               seed: int = 0, report: Report = quiet) -> np.ndarray:
-    """(k, rays) int32 the patch where one cosine-distributed ray from each of ``rays`` (a perfect
-    square) jittered stratified points of each of ``patches`` (k,) stopped (-1: none), read by
-    ``patch_light``."""
+               seed: int = 0, report: Report = quiet, near: bool = True,
+               lights: DirectLighting | None = None) -> GatherHits:
+    """Where one cosine-distributed ray from each of ``rays`` (a perfect square) jittered stratified
+    points of each of ``patches`` (k,) stopped (``gather_hits`` of the k x rays points, patch by
+    patch), and with ``near`` the bounces from where those landed close, of one ray each
+    (``lights`` as for ``gather_hits``): read by ``patch_light``."""
     cells, side = _strata(rays)
-    chunk = max(1, (1 << 20) // rays)  # patches whose points are made at once (each a gather's set-up)
-    parts = []
-    for start in range(0, len(patches), chunk):
-        chosen = patches[start:start + chunk]
-        rng = np.random.default_rng([seed, PATCH_STREAM, start, 0])  # not a gather block's (three numbers)
-        uv = (cells[None] + rng.random((len(chosen), rays, 2)) / side).reshape(-1, 2)
-        points = uniform_points(np.repeat(mesh.patch_corners[chosen], rays, axis=0), uv)
-        hits = gather_hits(mesh, visibility, points, np.repeat(mesh.patch_normals[chosen], rays, axis=0), 1,
-                           seed, stream=PATCH_STREAM, near=False, first=start * rays)
-        parts.append(hits.patches.reshape(len(chosen), rays))
-        report(min(start + chunk, len(patches)) / len(patches))
-    return np.concatenate(parts) if parts else np.zeros((0, rays), np.int32)
+    rng = np.random.default_rng([seed, PATCH_STREAM, 0, 0])  # not a gather block's (three numbers)
+    uv = (cells[None] + rng.random((len(patches), rays, 2)) / side).reshape(-1, 2)
+    points = uniform_points(np.repeat(mesh.patch_corners[patches], rays, axis=0), uv)
+    return gather_hits(mesh, visibility, points, np.repeat(mesh.patch_normals[patches], rays, axis=0), 1, seed,
+                       report, stream=PATCH_STREAM, near=near, lights=lights, second_rays=1)
 
 
-def patch_light(hits: np.ndarray, values: np.ndarray, opacity: np.ndarray | None = None) -> np.ndarray:
-    """(k, C) the light arriving over each patch of ``patch_hits``' ``hits`` (k, rays) from patch
-    ``values`` (P, C): sum_q F(p, q) values_q, the mean of the values its rays met (each over the
-    ``opacity`` (P,) of the patch it stopped at, None: 1; 0 where none)."""
-    return _padded(values, opacity)[hits].mean(axis=1)
+def patch_light(hits: GatherHits, rays: int, **read) -> np.ndarray:
+    """(k, C) the light arriving over each of the k patches of ``patch_hits``' ``hits`` (``rays``
+    points each): sum_q F(p, q) X_q, the mean over its points of ``GatherHits.read`` with ``read``
+    (far: X; where rays landed close, as the final gather reads them)."""
+    light = hits.read(**read).light
+    return light.reshape(-1, rays, light.shape[1]).mean(axis=1)
 
 
 def pools_of(vertex: np.ndarray, normals: np.ndarray, max_angle: float = POOL_ANGLE) -> np.ndarray:

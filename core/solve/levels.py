@@ -209,12 +209,13 @@ class _Levels:
         return radiosity
 
     def _particles(self, mesh, visibility: Visibility, particles: int, stages: Stages) -> tuple[np.ndarray, bool]:
-        """X (P, C) for the unshot light, and whether particles were traced for it: the paths of
-        the last bake's particles are read with the colours of this one where they are about as
-        good as new ones (``montecarlo.ParticlePaths.reusable``: a light's colour or strength, or
-        reflectances that do not grow, changed since), else paths are traced and kept. The patches
-        that fewer than ``gather.SPARSE_HITS`` particles reached read their light by a gather of
-        that X instead (``gather.patch_hits``, kept with the paths)."""
+        """X (P, C) for the unshot light, from the particles' pools, and whether particles were
+        traced for it: the paths of the last bake's particles are read with the colours of this
+        one where they are about as good as new ones (``montecarlo.ParticlePaths.reusable``: a
+        light's colour or strength, or reflectances that do not grow, changed since), else paths
+        are traced and kept. Where the patches that fewer than ``gather.SPARSE_HITS`` particles
+        reached gather their light (``gather.patch_hits``) is found and kept with the paths;
+        ``monte_carlo`` reads it."""
         unshot, reflectance = self.state.unshot, mesh.patch_reflectance[:, : self.channels]
         paths = self.kept.get("paths")
         traced = paths is None or not paths.reusable(mesh, unshot, reflectance)
@@ -226,12 +227,20 @@ class _Levels:
             mesh, unshot, reflectance, report), timer="paths")
         if traced or "patch_hits" not in self.kept:  # the patches few particles reached, and where their rays went
             sparse = np.flatnonzero(np.bincount(paths.landings, minlength=mesh.patch_count) < gather.SPARSE_HITS)
+            near, lights = self._reads_near(), self.light.direct
             self.kept["patch_hits"] = sparse, stages.run(
-                "gathering at the patches few particles reached", (0.45, 0.5), gather.patch_hits, mesh, visibility,
-                sparse, gather.PATCH_RAYS, self.settings.seed, timer="monte_carlo")
-        sparse, hits = self.kept["patch_hits"]
-        future[sparse] = unshot[sparse] + reflectance[sparse] * gather.patch_light(hits, future, mesh.patch_opacity)
+                "gathering at the patches few particles reached", (0.45, 0.5), lambda report: gather.patch_hits(
+                    mesh, visibility, sparse, gather.PATCH_RAYS, self.settings.seed, report, near, lights),
+                timer="monte_carlo")
         return future, traced
+
+    def _reads_near(self) -> bool:
+        """Whether the gathers read the patches where their rays land close: not under an
+        environment, area lights or more than ``gather.MAX_NEAR_LIGHTS`` lights, which those rays
+        would not see (the near field (core/bake.py) reads the nodes' near patches then)."""
+        direct = self.light.direct
+        return (self.settings.near_field and direct.environment is None and not direct.has_area_lights
+                and len(direct.lights) <= gather.MAX_NEAR_LIGHTS)
 
     def _gather(self, radiosity: np.ndarray, report) -> np.ndarray:
         mesh = self.light.mesh
@@ -254,22 +263,31 @@ class _Levels:
         particles = montecarlo.particle_count(mesh.patch_count, settings.monte_carlo_rays)
         future, traced = self._particles(mesh, visibility, particles, stages)
         shot = state.radiosity[: mesh.patch_count] - state.unshot
-        radiosity = shot + future
         self.stats["monte_carlo"] = {"particles": particles, "gather_rays": settings.monte_carlo_rays,
                                      "traced": traced, "gathered_patches": len(self.kept["patch_hits"][0])}
-        if engine.method == "hemicube":  # the estimate keeps the unshot light's bound
-            return radiosity, stages.run("gathering at vertices", (0.5, 1.0), self._gather, radiosity,
-                                         timer="gather"), None
         reflectance = mesh.patch_reflectance[:, : self.channels]
         lights_part, intensities = self.light.light_parts(patch_factors)
         own = self.sources - shot - reflectance * lights_part
         sky = self.light.sky_parts(patch_factors)
         if sky is not None:
             own -= reflectance * sky[0]
-        read = {"far": future, "opacity": mesh.patch_opacity, "own": own, "reflectance": reflectance,
-                "radiosity": radiosity, "emission": mesh.patch_emission[:, : self.channels],
-                "sky": None if sky is None else sky[1], "lights": intensities}
-        gathered = self._final_gather(mesh, visibility, read, stages)
+
+        def read(values: np.ndarray) -> dict:
+            """``gather.GatherHits.read``'s arguments for the patches' X ``values`` (P, C)."""
+            return {"far": values, "opacity": mesh.patch_opacity, "own": own, "reflectance": reflectance,
+                    "radiosity": shot + values, "emission": mesh.patch_emission[:, : self.channels],
+                    "sky": None if sky is None else sky[1], "lights": intensities}
+
+        # the patches few particles reached: X_p = U_p + rho_p sum_q F(p, q) X_q by their own rays,
+        # read from the pools' X, and where those land close as the final gather reads
+        sparse, hits = self.kept["patch_hits"]
+        future[sparse] = state.unshot[sparse] + reflectance[sparse] * gather.patch_light(
+            hits, gather.PATCH_RAYS, **read(future))
+        radiosity = shot + future
+        if engine.method == "hemicube":  # the estimate keeps the unshot light's bound
+            return radiosity, stages.run("gathering at vertices", (0.5, 1.0), self._gather, radiosity,
+                                         timer="gather"), None
+        gathered = self._final_gather(mesh, visibility, read(future), stages)
         if visibility is not engine.visibility:  # the refined patches' own, beside the engine's
             self.extra_bytes += visibility.bytes
         return radiosity, state.radiosity[mesh.patch_count:] + gathered.light, gathered
@@ -289,11 +307,7 @@ class _Levels:
         first estimate, so the mean stays unbiased). Where the rays land, and the nodes gathered
         again, are kept for a re-solve."""
         rays, seed = self.settings.monte_carlo_rays, self.settings.seed
-        # an environment, area lights or many lights would be read as the patches' means where the
-        # rays land close: the near field (core/bake.py) reads those patches then
-        direct = self.light.direct
-        near = (self.settings.near_field and direct.environment is None and not direct.has_area_lights
-                and len(direct.lights) <= gather.MAX_NEAR_LIGHTS)
+        direct, near = self.light.direct, self._reads_near()
         if "gather_hits" not in self.kept:
             self.kept["gather_hits"] = stages.run(
                 "final gather", (0.5, 0.75), lambda report: gather.gather_hits(

@@ -185,7 +185,8 @@ def test_a_patch_gathers_over_its_whole_area():
     lower = np.flatnonzero(mesh.patch_centroids[:, 2] < c / 2)
     values = np.where(mesh.patch_centroids[:, 2:] > c / 2, 1.0, 0.0)
     rays = 4096
-    light = final_gather.patch_light(final_gather.patch_hits(mesh, rays_of(mesh), lower, rays, seed=2), values)
+    hits = final_gather.patch_hits(mesh, rays_of(mesh), lower, rays, seed=2, near=False)
+    light = final_gather.patch_light(hits, rays, far=values)
     found = (light[:, 0] * mesh.patch_areas[lower]).sum() / mesh.patch_areas[lower].sum()
     exact = c11(a, b, c)
     standard_error = np.sqrt(exact * (1 - exact) / (rays * len(lower)))
