@@ -355,6 +355,7 @@ def test_the_points_of_a_pool_with_one_normal_read_the_mean_of_their_own_estimat
     of its pool's own estimates, its light and what the rays read where they landed changed, to
     rounding: 3,000 points on the lamp's floor in pools drawn at random (2,048 a block, blocks cut
     where pools start, the points taken in the pools' order and given back in theirs)."""
+    monkeypatch.setattr(final_gather, "RAYS_PER_BLOCK", 2048 * 16)  # 2,048 points of 16 rays a block
     scene = wall_on_a_floor("lamp")
     mesh = discretize(scene, 0.25)
     rng = np.random.default_rng(7)
