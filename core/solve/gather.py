@@ -440,9 +440,8 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
     ``Surfaces.hit``), and with ``near``, the ``Bounce`` from where each that landed nearer than
     NEAR_HIT times its patch's longest edge did: ``second_rays`` rays of its own (None: SECOND_RAYS,
     one beyond MANY_RAYS rays), an emitting patch sampled (``emitters``) and the light of
-    ``lights``' lights there; then
-    the bounce of one ray from where each of those landed nearer than DEEP_HIT times its patch's
-    longest edge, and so on, NEAR_BOUNCES bounces at most.
+    ``lights``' lights there; then the bounce of one ray from where each of those landed nearer
+    than DEEP_HIT times its patch's longest edge, and so on, NEAR_BOUNCES bounces at most.
     ``stream``: the random numbers' (``NODE_STREAM``, ``AGAIN_STREAM`` for points gathered a second
     time: ``noisy_nodes``, ``PATCH_STREAM``), drawn per block of points from the index of its
     first, ``first`` that of ``points[0]``. Points of one ``pools`` (n,) label (the nodes of one
@@ -456,12 +455,11 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
     surfaces, emitters = Surfaces(mesh, visibility), Emitters(mesh)
     edges = longest_edges(mesh.patch_corners)
     reach, deep_reach = NEAR_HIT * edges, DEEP_HIT * edges
-    index_type = np.int32 if max(SECOND_RAYS, second_rays or 0) * len(points) * rays <= np.iinfo(np.int32).max \
-        else np.int64
-    light_count = 0 if lights is None else len(lights.lights)
-    depth = NEAR_BOUNCES if near else 0
     if second_rays is None:
         second_rays = SECOND_RAYS if rays <= MANY_RAYS else 1
+    index_type = np.int32 if second_rays * len(points) * rays <= np.iinfo(np.int32).max else np.int64
+    light_count = 0 if lights is None else len(lights.lights)
+    depth = NEAR_BOUNCES if near else 0
     followers = [second_rays] + [1] * (depth - 1)  # each bounce's rays per ray
 
     def block(index: int) -> tuple[np.ndarray, list[Bounce]]:
