@@ -63,7 +63,7 @@ PATCH_SKY_RAYS_PER_RAY = 4
 # breakfast room's error is"). The outline's samples are jittered, one at random in each cell of
 # the sub-lattice: a sub-lattice shifted as one beats against the slats of a blind, and by the
 # breakfast room's windows the nodes' sky light then spread 2.4 to 8.2 % from seed to seed, against
-# 1.4 to 3.2 % jittered ("The sky through a blind", same rays).
+# 1.4 to 4.3 % jittered ("The sky through a blind", same rays).
 OUTLINE_SPLIT = 4
 OUTLINE_LOOKS = 2
 # Whether a point sees part of the sky is told by rays its first directions do not decide: the
