@@ -10,9 +10,10 @@ within one of N p_q), from a uniform point, in a cosine-distributed direction, e
 power A_q U_q / (N p_q). The expected power reaching j from unit power leaving q is F_qj, and
 A_q F_qj = A_j F_jq, so X_j = U_j + rho_j W_j / A_j with W_j the power that arrives at j; the
 particle goes on with the weight rho_j w / s_j with probability s_j = max_c rho_j,c (Russian
-roulette), else stops. W / A is read over pools of neighbouring patches that face the same way
-and lie in one layer (``pools``), each holding MIN_HITS particles' hits: unbiased over the pool,
-a pool's noise about 1 / sqrt(MIN_HITS) and falling as particles are added (pools shrink).
+roulette), else stops. W / A is read over pools of neighbouring patches that face the same way,
+lie in one layer and on the same side of their triangles (``pools``), each holding MIN_HITS
+particles' hits: unbiased over the pool, a pool's noise about 1 / sqrt(MIN_HITS) and falling as
+particles are added (pools shrink).
 
 The paths (``trace_paths``) are kept apart from the colours that weight them
 (``ParticlePaths.future``), so that a re-solve with other reflectances or other unshot light reads
@@ -358,15 +359,18 @@ def read_pools(mesh: Discretization, arrived: np.ndarray, pool: np.ndarray) -> n
 def pools(mesh: Discretization, hits: np.ndarray, min_hits: float = MIN_HITS) -> np.ndarray:
     """(P,) labels 0, 1, ... of pools of patches that together hold ``min_hits`` of the particles'
     ``hits`` (P,): a patch with that many alone, the others with those of their cell of a grid
-    that face about the same way (normals rounded to a lattice of step 1/2) and lie in the same
-    layer along their normal (n . (c - cell centre) floored in steps of spacing / LAYERS_PER_CELL),
-    the spacing starting where the mean density gives min_hits per cell (sqrt(min_hits sum A /
+    that face about the same way (normals rounded to a lattice of step 1/2), lie in the same
+    layer along their normal (n . (c - cell centre) floored in steps of spacing / LAYERS_PER_CELL)
+    and on the same side of their triangles (front patches, or the backs of two-sided ones), the
+    spacing starting where the mean density gives min_hits per cell (sqrt(min_hits sum A /
     sum hits)) and doubled while a pool is short of them.
     Without pools a tiny patch that one particle reaches reads as a spike (power / tiny area) in
     every gather that meets it. A pool is unbiased over its members, so it must not mix light
-    and dark: hence hits, not area (where light is dense pools stay small), and layers (a
-    moulding lit by the sky is not pooled with faces turned the same way a step behind it in
-    shadow, whose darkness it would share)."""
+    and dark: hence hits, not area (where light is dense pools stay small), layers (a moulding
+    lit by the sky is not pooled with faces turned the same way a step behind it in shadow, whose
+    darkness it would share) and sides (the back of a cup's outer skin, two-sided, faces the
+    cup's inside from within its wall, millimetres behind the inner skin: the inside of a solid,
+    where no light goes)."""
     areas = mesh.patch_areas
     pool = np.arange(len(areas))
     if hits.sum() <= 0:
@@ -376,13 +380,14 @@ def pools(mesh: Discretization, hits: np.ndarray, min_hits: float = MIN_HITS) ->
     low = mesh.patch_centroids.min(axis=0)
     spacing = np.sqrt(min_hits * areas.sum() / hits.sum())
     facing = np.round(mesh.patch_normals * 2).astype(np.int64)
+    back = (np.arange(len(areas)) >= mesh.front_patch_count).astype(np.int64)[:, None]
     extent = float(np.ptp(mesh.patch_centroids, axis=0).max())
     while len(short):
         centroids = mesh.patch_centroids[short]
         cell = np.floor((centroids - low) / spacing).astype(np.int64)
         height = np.einsum("ij,ij->i", mesh.patch_normals[short], centroids - low - (cell + 0.5) * spacing)
         layer = np.floor(height / (spacing / LAYERS_PER_CELL)).astype(np.int64)
-        group = rows.labels(np.concatenate([cell, facing[short], layer[:, None]], axis=1))
+        group = rows.labels(np.concatenate([cell, facing[short], layer[:, None], back[short]], axis=1))
         pool[short] = next_pool + group
         next_pool += int(group.max()) + 1
         if spacing > extent:
