@@ -23,6 +23,8 @@ STUDIES = {
                 "10 min"),
     "breakfast": ("the breakfast room (269,538 triangles) under a sky: time, peak memory, progress and error against "
                   "path tracing: breakfast.md", "10 min"),
+    "interior": ("our bake of the breakfast room in Blender against Cycles', both against path tracing: interior.md",
+                 "25 min"),
     "growth": ("time and peak memory against triangles on the Cornell box tiled 1 to 64 times: growth.md, growth.png",
                "25 min"),
     "rescore": ("a core bake of the sample Cornell box scored against the last versus_cycles run's Cycles answer "

@@ -23,6 +23,7 @@ whose emitting meshes are ``emitters`` (left out of every comparison; every othe
 
 from __future__ import annotations
 
+import math
 import re
 import time
 from pathlib import Path
@@ -336,11 +337,14 @@ def build_cornell_box(path: Path, cell: float) -> str:
     return f"{build_samples.triangle_count(bpy.context.scene)} triangles, {built.stat().st_size / 1024:.0f} KiB"
 
 
-def save_scene(scene, names: list[str], path: Path) -> str:
+def save_scene(scene, names: list[str], path: Path, smooth_angle: float | None = None) -> str:
     """A core ``scene`` (+Y up, as the OBJ files) saved as a .blend at ``path``, turned to Blender's
-    +Z up by (x, y, z) -> (x, -z, y): one mesh object per material, named by ``names``; surfaces
-    purely diffuse Principled BSDFs of their reflectance, emitters a plain Emission shader; no world
-    light; Cycles set up as ../shared/CYCLES.md says. What was built."""
+    +Z up by (x, y, z) -> (x, -z, y): one mesh object per material, named by ``names``, shaded flat
+    (as Blender imports an OBJ without normals) or, with ``smooth_angle`` (degrees), smooth but
+    across edges sharper than that (as the core joins a scene's nodes without corner normals at its
+    crease angle); surfaces purely diffuse Principled BSDFs of their reflectance, emitters a plain
+    Emission shader; the scene's uniform ``sky`` (RGB) as the world's background (none where it is
+    black); Cycles set up as ../shared/CYCLES.md says. What was built."""
     from tools.source_extension import import_bpy
 
     bpy = import_bpy()
@@ -354,6 +358,9 @@ def save_scene(scene, names: list[str], path: Path) -> str:
         used, corners = np.unique(scene.triangles[chosen], return_inverse=True)
         mesh = bpy.data.meshes.new(names[material])
         mesh.from_pydata(vertices[used].tolist(), [], corners.reshape(-1, 3).tolist())
+        if smooth_angle is not None:
+            mesh.shade_smooth()
+            mesh.set_sharp_from_angle(angle=math.radians(smooth_angle))
         mesh.update()
         emission = scene.emission[chosen[0]]
         if emission.any():
@@ -363,6 +370,9 @@ def save_scene(scene, names: list[str], path: Path) -> str:
             reflectance = tuple(scene.reflectance[chosen[0]])
             mesh.materials.append(build_samples.diffuse_principled(names[material], reflectance))
         build_samples.link_object(names[material], mesh)
+    if np.any(scene.sky):
+        strength = float(np.max(scene.sky))
+        build_samples.set_world(bpy.context.scene, tuple(np.asarray(scene.sky) / strength), strength)
     build_samples.set_render(bpy.context.scene, path.stem, 512, 512)
     bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True, check_existing=False)
     return f"{len(scene.triangles)} triangles, {len(names)} meshes, {path.stat().st_size / 1024:.0f} KiB"

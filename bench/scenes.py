@@ -6,7 +6,8 @@ and Sponza's licence is non-commercial).
   CORNELL_SPLIT x CORNELL_SPLIT), "sponza" (Dabrovic Sponza with its sky quad) and "breakfast"
   (the breakfast room under a uniform sky);
 - ``blend(name)``, a .blend for the studies against Cycles: "cornell_box" (the sample file),
-  "fine_mesh" (the same box with walls 40 x 40) and "sponza" (``load("sponza")`` in Blender);
+  "fine_mesh" (the same box with walls 40 x 40), "sponza" and "breakfast" (``load(name)`` in
+  Blender, the breakfast room's sky its world);
 - ``extracted(path)``: the core scene of a .blend as the add-on reads it, and where each triangle
   corner's colour is written.
 
@@ -24,7 +25,7 @@ import numpy as np
 from bench import in_blender
 from bench.paths import BUILD, REPO, SCENES, shown
 from bench.runner import value_in_fresh_process
-from core import Scene, read_obj
+from core import BakeSettings, Scene, read_obj
 from core.scene import subdivide
 from core.util.geometry import areas_and_normals
 
@@ -71,7 +72,7 @@ def load(name: str) -> Scene:
     if name == "sponza":
         return sponza_with_names()[0]
     if name == "breakfast":
-        return dataclasses.replace(read_obj(BREAKFAST)[0], sky=np.full(3, BREAKFAST_SKY))
+        return breakfast_with_names()[0]
     raise ValueError(f"no benchmark scene {name!r}: 'cornell', 'sponza' or 'breakfast'")
 
 
@@ -80,6 +81,12 @@ def sponza_with_names() -> tuple[Scene, list[str]]:
     own, SKY), and the name of each material."""
     scene, names = read_obj(SPONZA)
     return with_emitter_quad(scene, np.array(SKY_CORNERS), SKY_EMISSION, facing=(0.0, -1.0, 0.0)), [*names, SKY]
+
+
+def breakfast_with_names() -> tuple[Scene, list[str]]:
+    """The breakfast room under its uniform sky BREAKFAST_SKY, and the name of each material."""
+    scene, names = read_obj(BREAKFAST)
+    return dataclasses.replace(scene, sky=np.full(3, BREAKFAST_SKY)), names
 
 
 def with_emitter_quad(scene: Scene, corners: np.ndarray, emission: float, facing: tuple[float, float, float]) -> Scene:
@@ -115,8 +122,8 @@ class Blend(NamedTuple):
 
 
 def blend(name: str) -> Blend:
-    """The .blend ``name``: "cornell_box" (sample_blends/), or "fine_mesh" or "sponza", built
-    afresh into build/ by Blender in a process of its own."""
+    """The .blend ``name``: "cornell_box" (sample_blends/), or "fine_mesh", "sponza" or "breakfast",
+    built afresh into build/ by Blender in a process of its own."""
     if name == "cornell_box":
         return Blend(SAMPLE_BLEND, shown(SAMPLE_BLEND), in_blender.CORNELL_EMITTERS)
     BUILT.mkdir(parents=True, exist_ok=True)
@@ -127,13 +134,24 @@ def blend(name: str) -> Blend:
     if name == "sponza":
         path = BUILT / "sponza.blend"
         return Blend(path, f"{shown(path)}: {value_in_fresh_process(build_sponza, path)}", (SKY,))
-    raise ValueError(f"no .blend {name!r}: 'cornell_box', 'fine_mesh' or 'sponza'")
+    if name == "breakfast":
+        path = BUILT / "breakfast.blend"
+        return Blend(path, f"{shown(path)}: {value_in_fresh_process(build_breakfast, path)}", ())
+    raise ValueError(f"no .blend {name!r}: 'cornell_box', 'fine_mesh', 'sponza' or 'breakfast'")
 
 
 def build_sponza(path: Path) -> str:
     """Sponza saved as a .blend at ``path`` (bench/in_blender.py ``save_scene``); what was built."""
     scene, names = sponza_with_names()
     return in_blender.save_scene(scene, names, path)
+
+
+def build_breakfast(path: Path) -> str:
+    """The breakfast room under its sky saved as a .blend at ``path`` (``save_scene``), shaded smooth
+    but across edges sharper than the bake's crease angle, so that its nodes are those of the core's
+    bake of the OBJ (the breakfast study's); what was built."""
+    scene, names = breakfast_with_names()
+    return in_blender.save_scene(scene, names, path, smooth_angle=BakeSettings().crease_angle)
 
 
 class Extracted(NamedTuple):

@@ -16,6 +16,7 @@ is one.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 from typing import NamedTuple
 
@@ -71,6 +72,41 @@ class Traced(NamedTuple):
     owner: np.ndarray
     loop: np.ndarray
 
+    def colours(self, result: dict) -> np.ndarray:
+        """(n, 3) a bake's colours (a result of bench/in_blender.py) at these corners."""
+        return at_corners(result, self.owner, self.loop)
+
+    def error(self, result: dict) -> float:
+        """A bake's NRMSE against this answer, the answer's noise removed in quadrature."""
+        return without_noise(nrmse(self.colours(result), self.answer.radiosity), self.answer.noise)
+
+    def subset(self, chosen: np.ndarray) -> Traced:
+        """The answer at the ``chosen`` (n,) bool corners alone."""
+        answer = dataclasses.replace(self.answer, **{name: getattr(self.answer, name)[chosen] for name in
+                                                     ("triangles", "corners", "radiosity", "standard_error")})
+        return Traced(answer, self.owner[chosen], self.loop[chosen])
+
+
+class CyclesScores(NamedTuple):
+    """Cycles' bakes of a run at each sample count of its ladder (``steps``), each seed's error
+    against a path-traced answer (``errors``, one list per step), their means and the steps' seconds."""
+
+    steps: list[comparison.CyclesStep]
+    errors: list[list[float]]
+
+    @classmethod
+    def of(cls, found: Traced, results: dict, samples: int) -> CyclesScores:
+        steps = cycles_steps(results, comparison.ladder(samples))
+        return cls(steps, [[found.error(run) for run in step.runs] for step in steps])
+
+    @property
+    def means(self) -> list[float]:
+        return [float(np.mean(errors)) for errors in self.errors]
+
+    @property
+    def seconds(self) -> list[float]:
+        return [step.seconds for step in self.steps]
+
 
 def traced(extracted: scenes.Extracted, patch_size: float | None, corners: int, paths: int) -> Traced:
     """B at ``corners`` random corners of non-emitting triangles of a .blend's scene, path-traced
@@ -94,7 +130,7 @@ def cornell_check(quick: bool) -> list[str]:
     blend = scenes.blend("cornell_box")
     corners, paths = (QUICK_CORNERS, QUICK_PATHS) if quick else (CORNELL_CORNERS, CORNELL_PATHS)
     found = traced(scenes.extracted(blend.path), None, corners, paths)
-    first, second = (at_corners(run, found.owner, found.loop) for run in cycles_runs(data["results"], data["samples"]))
+    first, second = (found.colours(run) for run in cycles_runs(data["results"], data["samples"]))
     gap = Gap.of(found.answer.radiosity, found.answer.noise, first, second)
     return [
         f"On `{blend.description}`, where Cycles converges (docs/results/versus_cycles.md), path tracing at "
@@ -113,28 +149,21 @@ def report(data: dict, found: Traced, header: dict, minutes: float, quick: bool,
     """The Markdown report: each bake's error against the path-traced answer, and Cycles' time at it."""
     results, samples = data["results"], data["samples"]
     answer, noise = found.answer.radiosity, found.answer.noise
-
-    def error(result: dict) -> float:
-        return without_noise(nrmse(at_corners(result, found.owner, found.loop), answer), noise)
-
-    cycles_errors, cycles_seconds, cycles_rows = [], [], []
-    for step in cycles_steps(results, comparison.ladder(samples)):
-        errors = [error(run) for run in step.runs]
-        cycles_errors.append(float(np.mean(errors)))
-        cycles_seconds.append(step.seconds)
-        cycles_rows.append([f"Cycles {step.samples} samples", f"{step.seconds:.1f}", " / ".join(map(pct, errors))])
+    cycles = CyclesScores.of(found, results, samples)
+    cycles_rows = [[f"Cycles {step.samples} samples", f"{step.seconds:.1f}", " / ".join(map(pct, errors))]
+                   for step, errors in zip(cycles.steps, cycles.errors)]
     our_rows, best = [], None
     for label in (label for label in results if label.startswith("ours ")):
         result = results[label]
-        ours = error(result)
-        seconds, how = seconds_at(ours, cycles_errors, cycles_seconds)
-        values = at_corners(result, found.owner, found.loop)
+        ours = found.error(result)
+        seconds, how = seconds_at(ours, cycles.means, cycles.seconds)
+        values = found.colours(result)
         our_rows.append([label.removeprefix("ours "), f"{result['wall']:.0f}", pct(ours),
                          f"{values.mean() / answer.mean():.3f}", f"{seconds:.3g}" + (" (extrapolated)" if how else ""),
                          f"{seconds / result['wall']:.3g}"])
         if best is None or seconds / result["wall"] > best[1]:
             best = (label.removeprefix("ours "), seconds / result["wall"], ours, result["wall"])
-    first, second = (at_corners(run, found.owner, found.loop) for run in cycles_runs(results, samples))
+    first, second = (found.colours(run) for run in cycles_runs(results, samples))
     gap = Gap.of(answer, noise, first, second)
     worst_rows = [[f"{found.owner[k]} loop {found.loop[k]}", rgb(answer[k]), rgb(first[k]), rgb(second[k])]
                   for k in gap.worst[:5]]

@@ -36,19 +36,19 @@ def receiving_points(mesh: Discretization, visibility: Visibility) -> np.ndarray
     scene's triangles (``triangle_normals``, ``two_sided``)."""
     weights, cells = barycentric_grid(SAMPLE_DIVISIONS)
     points = weights[cells].mean(axis=1) @ mesh.patch_corners  # (P, S, 3)
-    buried = _buried(points, mesh.patch_normals, visibility)
-    partly = buried.any(axis=1) & ~buried.all(axis=1)
+    inside = buried(points, mesh.patch_normals, visibility)
+    partly = inside.any(axis=1) & ~inside.all(axis=1)
     result = mesh.patch_centroids.copy()
     if not partly.any():
         return result
-    points, free = points[partly], ~buried[partly]
+    points, free = points[partly], ~inside[partly]
     mean = (points * free[..., None]).sum(axis=1) / free.sum(axis=1, keepdims=True)
     distance = np.where(free, ((points - mean[:, None]) ** 2).sum(axis=2), np.inf)
     result[partly] = points[np.arange(len(points)), distance.argmin(axis=1)]
     return result
 
 
-def _buried(points: np.ndarray, normals: np.ndarray, visibility: Visibility) -> np.ndarray:
+def buried(points: np.ndarray, normals: np.ndarray, visibility: Visibility) -> np.ndarray:
     """(P, S) bool: whether every probe ray from points (P, S, 3) on surfaces facing normals
     (P, 3) first meets the back of a triangle. The ray along the normal goes first, the ring only
     from the points where it met a back (elsewhere the point is free whatever the ring meets):

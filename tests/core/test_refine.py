@@ -153,7 +153,7 @@ def test_burial_probes_agree_with_casting_every_ring_ray():
     back = (hit >= 0) & ((rays * visibility.triangle_normals[index]).sum(axis=1) > 0) & ~visibility.two_sided[index]
     expected = back.reshape(len(points), samples, probes).all(axis=2)
     assert expected.sum() > 50 and (~expected).sum() > 50  # both verdicts occur
-    np.testing.assert_array_equal(receivers._buried(points, normals, visibility), expected)
+    np.testing.assert_array_equal(receivers.buried(points, normals, visibility), expected)
 
 
 def test_where_no_ray_can_meet_a_back_no_patch_is_buried_and_no_probe_is_cast():
