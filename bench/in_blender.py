@@ -340,7 +340,7 @@ def build_cornell_box(path: Path, cell: float) -> str:
 def save_scene(scene, names: list[str], path: Path, smooth_angle: float | None = None) -> str:
     """A core ``scene`` (+Y up, as the OBJ files) saved as a .blend at ``path``, turned to Blender's
     +Z up by (x, y, z) -> (x, -z, y): one mesh object per material, named by ``names``, shaded flat
-    (as Blender imports an OBJ without normals) or, with ``smooth_angle`` (degrees), smooth but
+    or, with ``smooth_angle`` (degrees), smooth but
     across edges sharper than that (as the core joins a scene's nodes without corner normals at its
     crease angle); surfaces purely diffuse Principled BSDFs of their reflectance, emitters a plain
     Emission shader; the scene's uniform ``sky`` (RGB) as the world's background (none where it is

@@ -84,15 +84,15 @@ def report(data: dict, found: Traced, inside: np.ndarray, minutes: float) -> str
     cycles_seen = CyclesScores.of(seen, results, samples)
     for row, errors in zip(cycles_rows, cycles_seen.errors):
         row.append(" / ".join(map(pct, errors)))
-    our_rows, speedups = [], []
+    our_rows, speedups = [], {"at every corner": [], "where seen": []}
     for name in QUICK_BAKES if quick else BAKES:
         result = results[label(name)]
         row = [name, f"{result['wall']:.0f}"]
-        for answered, curve in ((found, cycles), (seen, cycles_seen)):
+        for where, answered, curve in zip(speedups, (found, seen), (cycles, cycles_seen)):
             ours = answered.error(result)
             seconds, how = seconds_at(ours, curve.means, curve.seconds)
             row += [pct(ours), f"{seconds:.3g}" + (" (extrapolated)" if how else ""), f"{seconds / result['wall']:.3g}"]
-            speedups.append((name, seconds / result["wall"], ours, result["wall"], answered is seen))
+            speedups[where].append((seconds / result["wall"], name, ours, result["wall"]))
         counts, stages = result["counts"], result["stages"]
         our_rows.append(row + [f"{found.colours(result).mean() / answer.mean():.3f}",
                                pct(counts["error_estimate"]["total"]),
@@ -100,7 +100,6 @@ def report(data: dict, found: Traced, inside: np.ndarray, minutes: float) -> str
     first, second = (found.colours(run) for run in cycles_runs(results, samples))
     gap = Gap.of(answer, noise, first, second)
     counts = results[label("defaults")]["counts"]
-    best = [max((item for item in speedups if item[4] == where), key=lambda item: item[1]) for where in (False, True)]
     about = (f"Options: `--samples N` (Cycles' highest samples, default {SAMPLES}; the bakes go from "
              f"{comparison.FIRST_SAMPLES} samples up to it, x 4 at each step, two seeds each), `--corners N` "
              f"(default {CORNERS:,}), `--paths N` (default {PATHS:,}), `--quick`, `--from-results JSON` (the bakes "
@@ -138,7 +137,7 @@ def report(data: dict, found: Traced, inside: np.ndarray, minutes: float) -> str
         "",
         *(f"- Best speed-up {where}: {name}, {pct(error)} in {wall:.0f} s, {speedup:.3g} x Cycles (the project's "
           f"target, {TARGET_SPEEDUP:g} x, is {'met' if speedup >= TARGET_SPEEDUP else 'not met'})."
-          for where, (name, speedup, error, wall, _) in zip(("at every corner", "where seen"), best)),
+          for where, (speedup, name, error, wall) in ((where, max(items)) for where, items in speedups.items())),
         f"- Cycles' {samples}-sample answer (the mean of its two seeds) is {pct(gap.error)} from path tracing once "
         f"its own noise ({pct(gap.cycles_noise)}) is removed too, its mean over path tracing's {gap.ratio:.3f}: "
         + ("its error is its noise, so its time at a lower error follows noise's law, time x 1 / error^2."
