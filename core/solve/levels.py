@@ -213,23 +213,27 @@ class _Levels:
         traced for it: the paths of the last bake's particles are read with the colours of this
         one where they are about as good as new ones (``montecarlo.ParticlePaths.reusable``: a
         light's colour or strength, or reflectances that do not grow, changed since), else paths
-        are traced and kept. Where the patches that fewer than ``gather.SPARSE_HITS`` particles
-        reached gather their light (``gather.patch_hits``) is found and kept with the paths;
-        ``monte_carlo`` reads it."""
+        are traced, sent by power and the final gather's view importance (``_view_importance``; by
+        power alone with the hemicube, which has no final gather), and kept. Where the patches that
+        fewer than ``gather.SPARSE_HITS`` particles reached gather their light
+        (``gather.patch_hits``) is found and kept with the paths; ``monte_carlo`` reads it."""
         unshot, reflectance = self.state.unshot, mesh.patch_reflectance[:, : self.channels]
         paths = self.kept.get("paths")
         traced = paths is None or not paths.reusable(mesh, unshot, reflectance)
         if traced:
+            importance = None if self.light.engine.method == "hemicube" else self._view_importance(
+                mesh, visibility, particles, stages)
             paths = self.kept["paths"] = stages.run(
-                "tracing particles", (0.0, 0.4), montecarlo.trace_paths, mesh, visibility, unshot, reflectance,
-                particles, self.settings.seed, timer="monte_carlo")
-        future = stages.run("reading the particles' paths", (0.4, 0.45), lambda report: paths.future(
+                "tracing particles", (0.3, 0.6), lambda report: montecarlo.trace_paths(
+                    mesh, visibility, unshot, reflectance, particles, self.settings.seed, report, importance),
+                timer="monte_carlo")
+        future = stages.run("reading the particles' paths", (0.6, 0.63), lambda report: paths.future(
             mesh, unshot, reflectance, report), timer="paths")
         if traced or "patch_hits" not in self.kept:  # the patches few particles reached, and where their rays went
             sparse = np.flatnonzero(np.bincount(paths.landings, minlength=mesh.patch_count) < gather.SPARSE_HITS)
             near, lights = self._reads_near(), self.light.direct
             self.kept["patch_hits"] = sparse, stages.run(
-                "gathering at the patches few particles reached", (0.45, 0.5), lambda report: gather.patch_hits(
+                "gathering at the patches few particles reached", (0.63, 0.68), lambda report: gather.patch_hits(
                     mesh, visibility, sparse, gather.PATCH_RAYS, self.settings.seed, report, near, lights),
                 timer="monte_carlo")
         return future, traced
@@ -285,7 +289,7 @@ class _Levels:
             hits, gather.PATCH_RAYS, **read(future))
         radiosity = shot + future
         if engine.method == "hemicube":  # the estimate keeps the unshot light's bound
-            return radiosity, stages.run("gathering at vertices", (0.5, 1.0), self._gather, radiosity,
+            return radiosity, stages.run("gathering at vertices", (0.68, 1.0), self._gather, radiosity,
                                          timer="gather"), None
         gathered = self._final_gather(mesh, visibility, read(future), stages)
         if visibility is not engine.visibility:  # the refined patches' own, beside the engine's
@@ -298,6 +302,27 @@ class _Levels:
             self.kept["pools"] = gather.node_pools(mesh, visibility, self.settings.seed)
         return self.kept["pools"]
 
+    def _gather_hits(self, mesh, visibility: Visibility, stages: Stages) -> gather.GatherHits:
+        """Where the final gather's rays from the nodes land (``gather.gather_hits``), kept."""
+        if "gather_hits" not in self.kept:
+            rays, direct = self.settings.monte_carlo_rays, self.light.direct
+            self.kept["gather_hits"] = stages.run(
+                "final gather", (0.0, 0.25), lambda report: gather.gather_hits(
+                    mesh, visibility, mesh.node_points, mesh.node_normals, rays, self.settings.seed, report,
+                    near=self._reads_near(), lights=direct, pools=self._pools(mesh, visibility)),
+                timer="monte_carlo")
+        return self.kept["gather_hits"]
+
+    def _view_importance(self, mesh, visibility: Visibility, particles: int, stages: Stages) -> np.ndarray:
+        """(P,) how much a unit of power leaving each patch adds to what the final gather reads
+        (``montecarlo.view_importance`` of where its rays land, with the reflectances of now)."""
+        landed = self._gather_hits(mesh, visibility, stages).patches
+        viewed = np.bincount(landed[landed >= 0], minlength=mesh.patch_count).astype(float)
+        importons = int(particles * montecarlo.IMPORTONS_PER_PARTICLE)
+        return stages.run("tracing the view importance", (0.25, 0.3), montecarlo.view_importance, mesh, visibility,
+                          viewed, mesh.patch_reflectance[:, : self.channels], importons, self.settings.seed,
+                          timer="monte_carlo")
+
     def _final_gather(self, mesh, visibility: Visibility, read: dict, stages: Stages) -> gather.Gathered:
         """The final gather at the nodes (N, C) of what the shots left, ``read`` the arguments of
         ``gather.GatherHits.read`` (far: X, what the patches add beyond their shots; near: their
@@ -308,14 +333,9 @@ class _Levels:
         again, are kept for a re-solve."""
         rays, seed = self.settings.monte_carlo_rays, self.settings.seed
         direct, near = self.light.direct, self._reads_near()
-        if "gather_hits" not in self.kept:
-            self.kept["gather_hits"] = stages.run(
-                "final gather", (0.5, 0.75), lambda report: gather.gather_hits(
-                    mesh, visibility, mesh.node_points, mesh.node_normals, rays, seed, report, near=near,
-                    lights=direct, pools=self._pools(mesh, visibility)),
-                timer="monte_carlo")
-        first = stages.run("reading the final gather", (0.75, 0.8), lambda _report: self.kept["gather_hits"].read(
-            **read), timer="monte_carlo")
+        cast = self._gather_hits(mesh, visibility, stages)
+        first = stages.run("reading the final gather", (0.68, 0.72), lambda _report: cast.read(**read),
+                           timer="monte_carlo")
         pools = self.kept.get("pools")
         if "regathered" not in self.kept:
             variance = first.standard_error ** 2  # each channel's share: the same for light scaled per channel
@@ -325,7 +345,7 @@ class _Levels:
             nodes = gather.noisy_nodes(shares.sum(axis=1), mesh.corner_node, gather.REGATHER_SHARE) \
                 if more else np.zeros(0, dtype=np.int64)
             hits = None if len(nodes) == 0 else stages.run(
-                "final gather again where it is noisy", (0.8, 0.97), lambda report: gather.gather_hits(
+                "final gather again where it is noisy", (0.72, 0.97), lambda report: gather.gather_hits(
                     mesh, visibility, mesh.node_points[nodes], mesh.node_normals[nodes], more, seed, report,
                     stream=gather.AGAIN_STREAM, near=near, lights=direct,
                     pools=None if pools is None else pools[nodes]),

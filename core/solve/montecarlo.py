@@ -6,7 +6,9 @@ bounces, is X = U + rho F X. ``trace`` estimates X on the patches by particle tr
 collision estimator of stochastic radiosity: Pattanaik and Mudur 1993; Bekaert, "Hierarchical and
 stochastic algorithms for radiosity", 1999, ch. 4): N particles leave the patches, patch q
 chosen with probability p_q proportional to A_q sum_c |U_q,c| (systematically, so each patch gets
-within one of N p_q), from a uniform point, in a cosine-distributed direction, each carrying the
+within one of N p_q; or mixed with the final gather's view importance, ``view_importance``, so
+that light that never reaches what the gather reads, as the sky's on a room's outside walls,
+sends few particles), from a uniform point, in a cosine-distributed direction, each carrying the
 power A_q U_q / (N p_q). The expected power reaching j from unit power leaving q is F_qj, and
 A_q F_qj = A_j F_jq, so X_j = U_j + rho_j W_j / A_j with W_j the power that arrives at j; the
 particle goes on with the weight rho_j w / s_j with probability s_j = max_c rho_j,c (Russian
@@ -51,8 +53,16 @@ LAYERS_PER_CELL = 4
 # the rays grow (tests/core/test_montecarlo.py), but in a room lit through its windows the gather of
 # a vertex in a crevice (a cup's foot on its saucer) reads a few small patches, whose noise is its
 # error, however few its rays (docs/notes/experiments.md, "Where the breakfast room's error is").
+# Sent where the gather reads (``view_importance``), 8 per patch did as well as 16 in less time
+# (docs/notes/experiments.md, "Particles sent where the final gather reads").
 PARTICLES_PER_RAY = 1 / 16
-MIN_PARTICLES_PER_PATCH = 16
+MIN_PARTICLES_PER_PATCH = 8
+# With a view importance (``view_importance``), this share of the particles is sent by power alone
+# and the rest by power times its root (``_sampling``): a defensive mixture, so that every source of
+# light sends at least this share of what it would by power (its variance at most 1 / POWER_SHARE times).
+POWER_SHARE = 0.5
+# Importons (``view_importance``) per particle: the importance only steers where particles leave.
+IMPORTONS_PER_PARTICLE = 1 / 16
 # Paths traced for other colours are read again (``ParticlePaths.reusable``) while the second moment
 # of the power their particles carry is at most this times that of particles traced for the colours
 # (so the noise at most sqrt(1.25) = 1.12 times; tests/core/test_session.py measures it).
@@ -182,6 +192,7 @@ class ParticlePaths:
         bounce before from which the particle went on.
     bounce_starts : (G + 1,) where each bounce's landings start in ``landings``.
     sampling : (P,) the chance p_q that a particle leaves patch q (summing to 1).
+    importance : (P,) the view importance the sampling followed (``view_importance``), or None.
     survival : (P,) the chance s_q that a particle that landed on q goes on.
     stops : (P,) the chance that a particle meeting q stops there (its opacity).
     pool : (P,) the pool each patch reads the power arriving over (``pools`` of its landings).
@@ -195,11 +206,18 @@ class ParticlePaths:
     survival: np.ndarray
     stops: np.ndarray
     pool: np.ndarray
+    importance: np.ndarray | None = None
 
     def future(self, mesh: Discretization, unshot: np.ndarray, reflectance: np.ndarray,
                report: Report = quiet) -> np.ndarray:
         """(P, C) the estimate of X = U + rho W / A that these paths give for ``unshot`` U (P, C)
-        and ``reflectance`` rho (P, C), W the power arriving read over the pools: a particle
+        and ``reflectance`` rho (P, C), W / A the power arriving per unit area (``arriving``)."""
+        return unshot + reflectance * self.arriving(mesh, unshot, reflectance, report)
+
+    def arriving(self, mesh: Discretization, unshot: np.ndarray, reflectance: np.ndarray,
+                 report: Report = quiet) -> np.ndarray:
+        """(P, C) W / A, the power per unit area that these paths bring to each patch, read over
+        the pools, for ``unshot`` U (P, C) leaving the patches and ``reflectance`` rho (P, C): a particle
         leaving q carries A_q U_q / (n p_q); each time it goes on from j its weight is multiplied
         by rho_j / (opacity_j s_j), and where it stops at j it brings its weight / opacity_j. It
         is unbiased for any U and rho (importance sampling of the paths) where p_q > 0 wherever
@@ -232,7 +250,7 @@ class ParticlePaths:
         for channel in parallel.map_ordered(arrived, range(unshot.shape[1])):
             channels.append(channel)
             report(len(channels) / unshot.shape[1])
-        return unshot + reflectance * read_pools(mesh, np.stack(channels, axis=1), self.pool)
+        return read_pools(mesh, np.stack(channels, axis=1), self.pool)
 
     def reusable(self, mesh: Discretization, unshot: np.ndarray, reflectance: np.ndarray) -> bool:
         """Whether ``future`` of ``unshot`` (P, C) and ``reflectance`` (P, C) on ``mesh`` (the
@@ -249,7 +267,7 @@ class ParticlePaths:
         shares = _power_shares(mesh, unshot)
         if (shares[self.sampling <= 0] > 0).any():
             return False
-        fresh = _sampling(shares)
+        fresh = _sampling(shares, self.importance)
         if fresh is None:
             return True
         lit = shares.sum(axis=0) > 0
@@ -266,26 +284,58 @@ def _power_shares(mesh: Discretization, unshot: np.ndarray) -> np.ndarray:
     return power / np.where(total > 0, total, 1.0)
 
 
-def _sampling(shares: np.ndarray) -> np.ndarray | None:
-    """(P,) the chance of each patch to send a particle: its shares of the power (P, C) summed over
-    the channels, over their sum (each lit channel counts alike); None if there is no light."""
+def _sampling(shares: np.ndarray, importance: np.ndarray | None = None) -> np.ndarray | None:
+    """(P,) the chance of each patch to send a particle, None if there is no light: by power, its
+    shares of the power (P, C) summed over the channels (each lit channel counts alike) over their
+    sum; with a view ``importance`` Z (P,), POWER_SHARE of that and the rest by power times sqrt(Z).
+    The root because the bake's error sums the variances of many readings, not the variance of
+    their sum: a particle from q adding c to each of m readings adds m c to Z_q but m c^2 to their
+    summed second moment S_q, and p_q proportional to A_q U_q sqrt(S_q) minimises the summed variance
+    (sqrt(m) c, as sqrt(Z_q) for c alike; by Z_q itself, the breakfast room's crevices, read by
+    many nodes, drew most particles, and it did worse: docs/notes/experiments.md)."""
     weights = shares.sum(axis=1)
     total = weights.sum()
-    return weights / total if total > 0 else None
+    if total <= 0:
+        return None
+    by_power = weights / total
+    viewed = weights if importance is None else weights * np.sqrt(importance)
+    seen = viewed.sum()
+    if importance is None or seen <= 0:
+        return by_power
+    return POWER_SHARE * by_power + (1 - POWER_SHARE) * viewed / seen
+
+
+def view_importance(mesh: Discretization, visibility: Visibility, viewed: np.ndarray, reflectance: np.ndarray,
+                    particles: int, seed: int = 0, report: Report = quiet) -> np.ndarray:
+    """(P,) the view importance Z of the patches: what a unit of power leaving patch q adds, with
+    all its bounces, to ``viewed`` V (P,), how often the final gather reads each patch (its rays
+    landing there). Power w arriving at j adds w (rho_j V_j / A_j + rho_j Z_j) = w Y_j, so
+    Z_q = sum_j F_qj Y_j; by reciprocity (A_q F_qj = A_j F_jq) that is the power per unit area
+    arriving at q from patches of radiosity Y = rho V / A + rho Z, which ``particles`` importons
+    traced as particles with unshot rho V / A estimate (Pattanaik and Mudur, "Adjoint equations
+    and random walks for illumination computation", 1995; Bekaert 1999, ch. 6). ``reflectance``
+    (P, C) is averaged over the channels."""
+    albedo = reflectance.mean(axis=1, keepdims=True)
+    emitted = albedo * (viewed / mesh.patch_areas)[:, None]
+    paths = trace_paths(mesh, visibility, emitted, albedo, particles, seed, report, stream=1)
+    return paths.arriving(mesh, emitted, albedo)[:, 0]
 
 
 def trace_paths(mesh: Discretization, visibility: Visibility, unshot: np.ndarray, reflectance: np.ndarray,
-                particles: int, seed: int = 0, report: Report = quiet) -> ParticlePaths:
+                particles: int, seed: int = 0, report: Report = quiet, importance: np.ndarray | None = None,
+                stream: int = 0) -> ParticlePaths:
     """The paths of ``particles`` particles carrying ``unshot`` U (P, C) between patches of
-    ``reflectance`` rho (P, C) (see the module docstring), to be read by ``ParticlePaths.future``."""
+    ``reflectance`` rho (P, C) (see the module docstring), to be read by ``ParticlePaths.future``;
+    sent by power, or by power and a view ``importance`` (P,) (``_sampling``). ``stream``
+    separates the random numbers of tracings with one ``seed``."""
     surfaces = Surfaces(mesh, visibility)
-    sampling = _sampling(_power_shares(mesh, unshot))
+    sampling = _sampling(_power_shares(mesh, unshot), importance)
     if particles <= 0 or sampling is None:
         sampling = np.zeros(mesh.patch_count)
         particles = 0
     # systematic sampling: patch q leaves floor(c_q + offset) - floor(c_{q-1} + offset) particles
     cumulative = np.cumsum(sampling) * particles
-    offset = np.random.default_rng([seed, 0]).random()
+    offset = np.random.default_rng([seed, 2 * stream]).random()
     counts = np.diff(np.floor(np.concatenate([[0.0], cumulative]) + offset)).astype(np.int64)
     sources = runs(counts).astype(np.int32)  # np.repeat(np.arange(P), counts), without holding the GIL
     # a particle stops at patch j with the chance opacity_j (``Surfaces.hit``) and goes on from it
@@ -297,7 +347,7 @@ def trace_paths(mesh: Discretization, visibility: Visibility, unshot: np.ndarray
     def block(start: int) -> list[tuple[np.ndarray, np.ndarray]]:
         """Per bounce, the patches the block's particles landed on and where each came from (for
         bounce 0 its particle in the block, after it its landing of the bounce before)."""
-        rng = np.random.default_rng([seed, 1, start])
+        rng = np.random.default_rng([seed, 2 * stream + 1, start])
         patch = sources[start:start + PARTICLES_PER_BLOCK]
         came_from = np.arange(len(patch))
         normal = mesh.patch_normals[patch]
@@ -321,7 +371,7 @@ def trace_paths(mesh: Discretization, visibility: Visibility, unshot: np.ndarray
     landings, came_from, bounce_starts = _joined(blocks, starts)
     del blocks  # joined: not held twice
     return ParticlePaths(sources, landings, came_from, bounce_starts, sampling, survival, stops,
-                         pools(mesh, np.bincount(landings, minlength=mesh.patch_count)))
+                         pools(mesh, np.bincount(landings, minlength=mesh.patch_count)), importance)
 
 
 def _joined(blocks: list[list[tuple[np.ndarray, np.ndarray]]],
