@@ -18,6 +18,7 @@ from bench.comparison import TARGET_SPEEDUP, Corners, CyclesAnswer, cycles_steps
 from bench.markdown import pct, table
 from bench.metrics import nrmse, seed_noise, without_noise
 from bench.paths import reports
+from core.solve import montecarlo
 
 STUDY = "sponza"
 SAMPLES, QUICK_SAMPLES = 256, 32
@@ -103,7 +104,9 @@ def report(data: dict) -> str:
         "eighth of the extent, never larger than a triangle). \"ambient term\": stopped after that many shots, "
         "the light not yet shot spread evenly as the ambient term. \"Monte Carlo N\": the emitters' patches "
         "shoot (no limit on the shots), then what they left unshot goes, with all its bounces, by particles from "
-        "the patches (N / 16 per patch) and a final gather of N rays at each vertex (core/solve/montecarlo.py). "
+        f"the patches (N / {round(1 / montecarlo.PARTICLES_PER_RAY)} per patch, at least "
+        f"{montecarlo.MIN_PARTICLES_PER_PATCH}; half sent where the final gather reads) and a final gather of N "
+        "rays at each vertex (core/solve/montecarlo.py). "
         "\"Cycles s\": a Cycles bake's time at the same NRMSE, along its noise (below) interpolated in log-log "
         "between its sample counts (extrapolated beyond them along the nearest segment). \"x\": that over ours.",
         "",
