@@ -192,10 +192,10 @@ class ParticlePaths:
         bounce before from which the particle went on.
     bounce_starts : (G + 1,) where each bounce's landings start in ``landings``.
     sampling : (P,) the chance p_q that a particle leaves patch q (summing to 1).
-    importance : (P,) the view importance the sampling followed (``view_importance``), or None.
     survival : (P,) the chance s_q that a particle that landed on q goes on.
     stops : (P,) the chance that a particle meeting q stops there (its opacity).
     pool : (P,) the pool each patch reads the power arriving over (``pools`` of its landings).
+    importance : (P,) the view importance the sampling followed (``view_importance``), or None.
     """
 
     sources: np.ndarray
@@ -298,11 +298,11 @@ def _sampling(shares: np.ndarray, importance: np.ndarray | None = None) -> np.nd
     if total <= 0:
         return None
     by_power = weights / total
-    viewed = weights if importance is None else weights * np.sqrt(importance)
-    seen = viewed.sum()
-    if importance is None or seen <= 0:
+    if importance is None:
         return by_power
-    return POWER_SHARE * by_power + (1 - POWER_SHARE) * viewed / seen
+    viewed = weights * np.sqrt(importance)
+    seen = viewed.sum()
+    return by_power if seen <= 0 else POWER_SHARE * by_power + (1 - POWER_SHARE) * viewed / seen
 
 
 def view_importance(mesh: Discretization, visibility: Visibility, viewed: np.ndarray, reflectance: np.ndarray,
@@ -311,8 +311,8 @@ def view_importance(mesh: Discretization, visibility: Visibility, viewed: np.nda
     all its bounces, to ``viewed`` V (P,), how often the final gather reads each patch (its rays
     landing there). Power w arriving at j adds w (rho_j V_j / A_j + rho_j Z_j) = w Y_j, so
     Z_q = sum_j F_qj Y_j; by reciprocity (A_q F_qj = A_j F_jq) that is the power per unit area
-    arriving at q from patches of radiosity Y = rho V / A + rho Z, which ``particles`` importons
-    traced as particles with unshot rho V / A estimate (Pattanaik and Mudur, "Adjoint equations
+    arriving at q from patches of radiosity Y = rho V / A + rho Z, which ``particles`` importons,
+    traced as particles with unshot rho V / A, estimate (Pattanaik and Mudur, "Adjoint equations
     and random walks for illumination computation", 1995; Bekaert 1999, ch. 6). ``reflectance``
     (P, C) is averaged over the channels."""
     albedo = reflectance.mean(axis=1, keepdims=True)
