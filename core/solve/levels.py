@@ -225,7 +225,8 @@ class _Levels:
                 mesh, visibility, particles, stages)
             paths = self.kept["paths"] = stages.run(
                 "tracing particles", (0.3, 0.6), lambda report: montecarlo.trace_paths(
-                    mesh, visibility, unshot, reflectance, particles, self.settings.seed, report, importance),
+                    mesh, visibility, unshot, reflectance, particles, self.settings.seed, report, importance,
+                    receiving=self.light.engine.receiving_points),
                 timer="monte_carlo")
         future = stages.run("reading the particles' paths", (0.6, 0.63), lambda report: paths.future(
             mesh, unshot, reflectance, report), timer="paths")
@@ -319,9 +320,9 @@ class _Levels:
         landed = self._gather_hits(mesh, visibility, stages).patches
         viewed = np.bincount(landed[landed >= 0], minlength=mesh.patch_count).astype(float)
         importons = int(particles * montecarlo.IMPORTONS_PER_PARTICLE)
-        return stages.run("tracing the view importance", (0.25, 0.3), montecarlo.view_importance, mesh, visibility,
-                          viewed, mesh.patch_reflectance[:, : self.channels], importons, self.settings.seed,
-                          timer="monte_carlo")
+        return stages.run("tracing the view importance", (0.25, 0.3), lambda report: montecarlo.view_importance(
+            mesh, visibility, viewed, mesh.patch_reflectance[:, : self.channels], importons, self.settings.seed,
+            report, self.light.engine.receiving_points), timer="monte_carlo")
 
     def _final_gather(self, mesh, visibility: Visibility, read: dict, stages: Stages) -> gather.Gathered:
         """The final gather at the nodes (N, C) of what the shots left, ``read`` the arguments of

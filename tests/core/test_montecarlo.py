@@ -14,6 +14,7 @@ from core.solve import gather as final_gather
 from core.solve import montecarlo
 from core.solve.montecarlo import MIN_HITS, cosine_directions, pools, read_pools, trace, trace_paths, uniform_points
 from core.rays.visibility import Visibility
+from core.transport.receivers import receiving_points
 from tests.core.scenes import box, grid, lit_room, merge, quad, uniform
 
 
@@ -127,6 +128,33 @@ def test_light_outside_a_closed_room_sends_only_the_power_share_of_its_particles
     future = paths.future(mesh, unshot, mesh.patch_reflectance)
     np.testing.assert_allclose(mesh.patch_areas[inside] @ future[inside] / mesh.patch_areas[inside].sum(), 4.0,
                                rtol=0.01)
+
+
+def test_no_particle_leaves_a_patch_where_a_solid_passes_through_it_on_the_side_away_from_its_light():
+    """A closed two-sided cube (reflectance 0.99) pushed halfway through a lit floor of two
+    triangles, not cut along it: each floor patch straddles the cube, its receiving point (its
+    centroid) outside. No light can reach the cube's inside, and no path can land there; but
+    particles leaving the floor from uniform points start inside the cube too, where reflectance
+    0.99 keeps them about a hundred bounces. Given where the patches received their light, none
+    leaves from a point the cube's walls part from it: no landing inside."""
+    floor = quad([-1, -1, 0], [2, 0, 0], [0, 2, 0])
+    cube_vertices, cube_triangles = box(0.4)
+    vertices, triangles = merge(floor, (cube_vertices + [0.3, 0.3, -0.2], cube_triangles))
+    scene = Scene(vertices, triangles, np.repeat([[0.5] * 3, [0.99] * 3], [2, 12], axis=0), np.zeros((14, 3)),
+                  two_sided=np.ones(14, bool))
+    mesh = discretize(scene, None, cut_contacts=False)
+    lit = np.flatnonzero(mesh.patch_triangle[: mesh.front_patch_count] < 2)
+    inside = np.flatnonzero(mesh.patch_triangle[: mesh.front_patch_count] >= 2)  # the cube faces inwards
+    assert len(lit) == 2 and len(inside) == 12
+    unshot = np.zeros((mesh.patch_count, 3))
+    unshot[lit] = 1.0
+    visibility = rays_of(mesh)
+    receiving = receiving_points(mesh, visibility)
+    np.testing.assert_allclose(receiving[lit, :2], [[1 / 3, -1 / 3], [-1 / 3, 1 / 3]])
+    leaking = trace_paths(mesh, visibility, unshot, mesh.patch_reflectance, 20_000)
+    assert np.isin(leaking.landings, inside).mean() > 0.5  # without: most landings are inside the cube
+    paths = trace_paths(mesh, visibility, unshot, mesh.patch_reflectance, 20_000, receiving=receiving)
+    assert len(paths.landings) > 100 and not np.isin(paths.landings, inside).any()  # the rest leave to the sky
 
 
 def test_light_scaled_per_channel_reads_the_same_paths_with_their_power_scaled():
