@@ -317,7 +317,7 @@ def view_importance(mesh: Discretization, visibility: Visibility, viewed: np.nda
     arriving at q from patches of radiosity Y = rho V / A + rho Z, which ``particles`` importons,
     traced as particles with unshot rho V / A, estimate (Pattanaik and Mudur, "Adjoint equations
     and random walks for illumination computation", 1995; Bekaert 1999, ch. 6). ``reflectance``
-    (P, C) is averaged over the channels; ``receiving`` as ``trace_paths``'."""
+    (P, C) is averaged over the channels; ``receiving`` as in ``trace_paths``."""
     albedo = reflectance.mean(axis=1, keepdims=True)
     emitted = albedo * (viewed / mesh.patch_areas)[:, None]
     paths = trace_paths(mesh, visibility, emitted, albedo, particles, seed, report, stream=1, receiving=receiving)
@@ -392,8 +392,8 @@ def _same_side(visibility: Visibility, points: np.ndarray, targets: np.ndarray, 
     particles would carry that light where none goes, and a pocket of reflectance near 1 would
     pile it up bounce after bounce. A point beyond a post, lit, is parted from the receiving
     point as well; contact cuts (``mesh.contacts``) leave such crossings to small patches only,
-    and few particles start there (Sponza: 704 of 1.6 million; the breakfast room in Blender,
-    3,534 of 5.4 million)."""
+    where few particles start (docs/notes/experiments.md, "Particles leave a patch only on the
+    side it was lit on")."""
     starts = visibility.to_unit(points) + RAY_EPSILON * normals
     span = (targets - points) * visibility.scale
     reach = np.sqrt(np.einsum("ij,ij->i", span, span))

@@ -134,9 +134,10 @@ def test_no_particle_leaves_a_patch_where_a_solid_passes_through_it_on_the_side_
     """A closed two-sided cube (reflectance 0.99) pushed halfway through a lit floor of two
     triangles, not cut along it: each floor patch straddles the cube, its receiving point (its
     centroid) outside. No light can reach the cube's inside, and no path can land there; but
-    particles leaving the floor from uniform points start inside the cube too, where reflectance
-    0.99 keeps them about a hundred bounces. Given where the patches received their light, none
-    leaves from a point the cube's walls part from it: no landing inside."""
+    particles leaving the floor from uniform points start inside the cube too (4 % of the floor),
+    and bounce there between its walls and the floor: 64 to 66 % of all landings over four seeds,
+    most particles leaving for the sky at once. Given where the patches received their light, none
+    leaves from a point the cube's walls part from it: no landing inside (about 700 outside)."""
     floor = quad([-1, -1, 0], [2, 0, 0], [0, 2, 0])
     cube_vertices, cube_triangles = box(0.4)
     vertices, triangles = merge(floor, (cube_vertices + [0.3, 0.3, -0.2], cube_triangles))
