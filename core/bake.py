@@ -15,6 +15,7 @@ from .mesh.surfaces import regions_split, resurfaced
 from .reconstruct import estimate
 from .reconstruct.corners import at_corners, per_corner
 from .reconstruct.correction import near_field_correction
+from .reconstruct.denoise import denoised
 from .scene import Scene
 from .scene.changes import geometry_change, intensities
 from .settings import BakeSettings, resolved, with_monte_carlo
@@ -26,7 +27,8 @@ from .util.hugepages import without_huge_page_advice
 from .util.progress import ProgressCallback, Stages, relayed, spans
 
 # Each stage's share of the progress bar: about what it takes of a typical bake.
-SHARES = {"discretise": 2, "rays": 2, "direct": 6, "solve": 87, "near field": 3, "split": 2, "corners": 0}
+SHARES = {"discretise": 2, "rays": 2, "direct": 6, "solve": 87, "near field": 3, "denoise": 0, "split": 2,
+          "corners": 0}
 
 
 @dataclass
@@ -202,6 +204,11 @@ class BakeSession:
             node_lighting, near_errors, near_stats = stages.run(
                 "near field", span["near field"], near_field_correction, scene, light, radiosity, node_lighting,
                 kept.near_field, settings.column_cache if self.keep else 0, timer="near_field")
+        sampling_noise = _sampling_noise(light, kept.node_noise)
+        if settings.denoise and solution.noise is not None:
+            node_lighting = stages.run("denoising", span["denoise"], _denoised, light, node_lighting,
+                                       kept.node_factors, np.hypot(solution.noise, sampling_noise),
+                                       solution.node_distance, settings.denoise, timer="denoise")
         corner_direct = None
         if settings.split_direct:
             corner_direct = stages.run("direct light at vertices", span["split"], _direct_at_corners, light,
@@ -213,7 +220,7 @@ class BakeSession:
             near_errors = mesh.node_reflectance[:, : light.channels] * np.abs(solution.near_change)
         error = estimate.of_bake(mesh, mesh.node_radiosity(node_lighting), radiosity, light.engine.receiving_points,
                                  self.method, solution.stats, solution.level_change, solution.noise, near_errors,
-                                 _sampling_noise(light, kept.node_noise))
+                                 sampling_noise)
         stages.done()
         stats = {
             "method": self.method,
@@ -241,7 +248,7 @@ def _spans(settings: BakeSettings, has_direct: bool, first: bool) -> dict:
     """The progress bar's span of each stage the bake runs (a re-solve: from the solve on)."""
     return spans({name: share for name, share in SHARES.items()
                   if (name != "direct" or has_direct) and (name != "near field" or settings.near_field)
-                  and (name != "split" or settings.split_direct)
+                  and (name != "split" or settings.split_direct) and (name != "denoise" or settings.denoise)
                   and (first or name not in ("discretise", "rays", "direct"))})
 
 
@@ -259,6 +266,15 @@ def _sampling_noise(light: ArrivingLight, noise: np.ndarray) -> np.ndarray:
     per unit of each (N, S - L, 3), after the L lights (``DirectLighting.sampled_factors_at``)."""
     lights = len(light.direct.lights)
     return light.direct.combine(noise, light.intensities[lights:])[:, : light.channels]
+
+
+def _denoised(light: ArrivingLight, node_lighting: np.ndarray, node_factors: np.ndarray, noise: np.ndarray,
+              distance: np.ndarray, strength: float, _report) -> np.ndarray:
+    """(N, C) ``node_lighting`` averaged with the neighbours' by its ``noise`` (N, C) and the
+    ``distance`` (N,) its gather's rays went (``reconstruct.denoise``), but for the lights' light,
+    which has none: taken from ``node_factors`` (N, S, 3) before and put back after."""
+    lights = light.light_parts(node_factors)[0]
+    return lights + denoised(light.mesh, node_lighting - lights, noise, distance, strength)
 
 
 def _direct_at_corners(light: ArrivingLight, node_direct: np.ndarray, node_lighting: np.ndarray,

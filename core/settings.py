@@ -59,6 +59,8 @@ class Knob:
                 return f"an integer from {self.low:g} to {self.high:g}"
             return "a non-negative integer" if self.low == 0 else f"an integer >= {self.low:g}"
         if self.high is None:
+            if self.low == 0 and self.open not in ("low", "both"):
+                return "a number >= 0"
             return "a positive length" if self.unit == "scene units" else "a positive number"
         left, right = ("(" if self.open in ("low", "both") else "["), (")" if self.open in ("high", "both") else "]")
         return f"in {left}{self.low:g}, {self.high:g}{right}" + (f" {self.unit}" if self.unit == "degrees" else "")
@@ -119,6 +121,9 @@ KNOBS: tuple[Knob, ...] = (
          "vertices) from 50 million on), else 0"),
     Knob("link_tolerance", float, 0.01, "Hierarchical: a link is split while the light it carries is above this "
          "share of the mean radiosity of the surfaces that do not emit", low=0, high=1, open="both"),
+    Knob("denoise", float, 3.0, "Monte Carlo: average each vertex's light with its neighbours' where they lie "
+         "close for what they see and differ by no more than about this many standard errors of their noise (0: "
+         "off); higher is smoother, but blurs more light that truly changes", low=0),
     Knob("ambient", bool, True, "Progressive: add an estimate of the light not yet shot as a uniform ambient term"),
     Knob("merge_flat", bool, True, "Solve flat regions of triangles smaller than the patch size on panels up to "
          "it, not triangle by triangle; colours are still evaluated at every vertex"),

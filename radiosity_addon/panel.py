@@ -60,6 +60,7 @@ def draw_advanced(layout, settings) -> None:
     sub.active = settings.use_max_shots
     sub.prop(settings, "max_shots", text="")
     column.prop(settings, "monte_carlo_rays")
+    column.prop(settings, "denoise")
     row = layout.row()
     row.active = settings.solver == "hierarchical"
     row.prop(settings, "link_tolerance")

@@ -97,6 +97,7 @@ class RadiositySettings(bpy.types.PropertyGroup):
         ] + [(str(n), str(n), f"{n} final-gather rays per vertex") for n in MONTE_CARLO_RAYS], default=AUTO))
     link_tolerance: bpy.props.FloatProperty(**knob_property("link_tolerance", "Link Tolerance", min=1e-5, max=0.5,
                                                             precision=4))
+    denoise: bpy.props.FloatProperty(**knob_property("denoise", "Denoise", soft_max=4.0, precision=2))
     ambient: bpy.props.BoolProperty(**knob_property("ambient", "Ambient Term"))
     merge_flat: bpy.props.BoolProperty(**knob_property("merge_flat", "Merge Flat Surfaces"))
     seed: bpy.props.IntProperty(**knob_property("seed", "Seed"))
@@ -207,6 +208,7 @@ class RadiositySettings(bpy.types.PropertyGroup):
             "max_shots": self.max_shots if self.use_max_shots else None,
             "monte_carlo_rays": None if self.monte_carlo_rays == AUTO else int(self.monte_carlo_rays),
             "link_tolerance": self.link_tolerance,
+            "denoise": self.denoise,
             "ambient": self.ambient,
             "merge_flat": self.merge_flat,
             "crease_angle": math.degrees(self.crease_angle),

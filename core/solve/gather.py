@@ -246,6 +246,9 @@ class GatherHits:
         pool are consecutive, in one block), its normal (n, 3), and the seed, stream and first
         index of the rays' random numbers, from which their directions are made again
         (``_ray_points``); None where each gathers alone.
+    mean_distance : (n,) the harmonic mean of the distances each point's rays went to the surfaces
+        they met, the points as given (inf where none met one): how far off what it sees lies (Ward,
+        Rubinstein and Clear 1988), or None.
     """
 
     patches: np.ndarray
@@ -255,6 +258,7 @@ class GatherHits:
     pools: np.ndarray | None = None
     normals: np.ndarray | None = None
     stream: tuple[int, int, int] | None = None
+    mean_distance: np.ndarray | None = None
 
     def read(self, far: np.ndarray, opacity: np.ndarray | None = None, own: np.ndarray | None = None,
              reflectance: np.ndarray | None = None, radiosity: np.ndarray | None = None,
@@ -462,7 +466,7 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
     depth = NEAR_BOUNCES if near else 0
     followers = [second_rays] + [1] * (depth - 1)  # each bounce's rays per ray
 
-    def block(index: int) -> tuple[np.ndarray, list[Bounce]]:
+    def block(index: int) -> tuple[np.ndarray, list[Bounce], np.ndarray]:
         start = blocks[index]
         chosen = slice(start, blocks[index + 1])
         count = len(points[chosen])
@@ -472,9 +476,15 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
         patch, landed = surfaces.hit(origins, directions.reshape(-1, 3), np.repeat(normals[chosen], rays, axis=0),
                                      rng)
         patches, bounces, offset = patch.astype(np.int32).reshape(count, rays), [], start * rays
+        went = landed - origins
+        distance = np.sqrt(np.einsum("ij,ij->i", went, went))  # faster than np.linalg.norm on rows of 3
+        nearness = np.divide(1.0, distance, out=np.zeros_like(distance), where=(patch >= 0) & (distance > 0))
+        mean_nearness = nearness.reshape(count, rays).mean(axis=1)
+        point_distance = np.divide(1.0, mean_nearness, out=np.full(count, np.inf), where=mean_nearness > 0)
         for level in range(depth):
-            went = landed - origins
-            distance = np.sqrt(np.einsum("ij,ij->i", went, went))  # faster than np.linalg.norm on rows of 3
+            if level:
+                went = landed - origins
+                distance = np.sqrt(np.einsum("ij,ij->i", went, went))
             limit = (reach if level == 0 else deep_reach)[np.maximum(patch, 0)]
             close = np.flatnonzero((patch >= 0) & (distance < limit))
             bounce, origins, patch, landed = _bounce(surfaces, emitters, lights, landed[close], patch[close],
@@ -482,7 +492,7 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
                                                      close // rays if level == 0 else None)
             bounces.append(replace(bounce, near=(close + offset).astype(index_type)))
             offset = 0  # the deeper bounces' are moved on when the blocks are joined
-        return patches, bounces
+        return patches, bounces, point_distance
 
     parts = []
     for done, part in enumerate(parallel.map_ordered(block, range(len(blocks) - 1)), 1):
@@ -494,9 +504,11 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
         levels = [part[1][level] for part in parts] or [Bounce.empty(followers[level], light_count, index_type)]
         before = [0] * len(levels) if level == 0 else [len(part[1][level - 1].patches.reshape(-1)) for part in parts]
         bounces.append(Bounce.joined(levels, before))
+    point_distance = np.concatenate([part[2] for part in parts]) if parts else np.zeros(0)
     if pools is None:
-        return GatherHits(patches, tuple(bounces), blocks)
-    return GatherHits(patches, tuple(bounces), blocks, order, pools, normals, (seed, stream, first))
+        return GatherHits(patches, tuple(bounces), blocks, mean_distance=point_distance)
+    return GatherHits(patches, tuple(bounces), blocks, order, pools, normals, (seed, stream, first),
+                      _unsorted(point_distance, order))
 
 
 def _bounce(surfaces: Surfaces, emitters: Emitters, lights: DirectLighting | None, at: np.ndarray,

@@ -35,6 +35,8 @@ class Solution:
     near_change : (N, C) what that gather's near rays changed in ``node_lighting`` by reading
         where they landed (``gather.GatherHits.read``), or None where no gather read the patches
         next to the nodes (the near field then does: core/bake.py).
+    node_distance : (N,) the harmonic mean distance the final gather's rays from each node went
+        (``gather.GatherHits.mean_distance``), or None without that gather.
     level_change : the discretisation estimate from the last refinement level (``estimate``), or None.
     patch_factors : (P, S, 3) each source's direct light over the patches per unit of its intensity.
     stats : the solver's statistics (shots or iterations, ...), with "refinements" and "monte_carlo".
@@ -50,6 +52,7 @@ class Solution:
     stats: dict = field(default_factory=dict)
     extra_bytes: int = 0
     near_change: np.ndarray | None = None
+    node_distance: np.ndarray | None = None
 
 
 def solve(light: ArrivingLight, patch_factors: np.ndarray, node_direct: np.ndarray, settings,
@@ -96,9 +99,12 @@ def solve(light: ArrivingLight, patch_factors: np.ndarray, node_direct: np.ndarr
     if monte_carlo and not solver.stats["converged"]:
         with stages.within((SHOTS_SHARE, 1.0)):
             radiosity, node_lighting, gathered = solver.monte_carlo(stages, patch_factors)
-    return Solution(solver.light, radiosity, node_lighting, None if gathered is None else gathered.standard_error,
-                    change, patch_factors, solver.stats | {"refinements": refinements}, solver.extra_bytes,
-                    None if gathered is None else gathered.near_change)
+    if gathered is None:
+        return Solution(solver.light, radiosity, node_lighting, None, change, patch_factors,
+                        solver.stats | {"refinements": refinements}, solver.extra_bytes)
+    return Solution(solver.light, radiosity, node_lighting, gathered.standard_error, change, patch_factors,
+                    solver.stats | {"refinements": refinements}, solver.extra_bytes, gathered.near_change,
+                    solver.kept["gather_hits"].mean_distance)
 
 
 class _Levels:

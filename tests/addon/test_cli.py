@@ -161,13 +161,14 @@ def test_knobs_given_on_the_command_line_reach_the_core(cli, saved_scene, tmp_pa
     argv = ["--output", str(tmp_path / "baked.blend"), "-q", "--patch-size", "0.5", "--rays-per-form-factor", "4",
             "--hemicube-resolution", "16", "--tolerance", "0.01", "--max-shots", "7", "--monte-carlo-rays", "16",
             "--no-ambient", "--no-merge-flat", "--crease-angle", "45", "--refinement-levels", "1", "--seed", "3",
-            "--method", "raycast", "--solver", "progressive", "--link-tolerance", "0.02"]
+            "--method", "raycast", "--solver", "progressive", "--link-tolerance", "0.02", "--denoise", "2.5"]
     assert cli.main(argv) == 0
     assert seen == {"patch_size": 0.5, "rays_per_form_factor": 4, "hemicube_resolution": 16,
                     "tolerance": pytest.approx(0.01, rel=1e-7),
                     "max_shots": 7, "monte_carlo_rays": 16, "ambient": False, "merge_flat": False,
                     "crease_angle": pytest.approx(45.0), "refinement_levels": 1, "seed": 3, "method": "raycast",
-                    "solver": "progressive", "link_tolerance": pytest.approx(0.02, rel=1e-7), "split_direct": False}
+                    "solver": "progressive", "link_tolerance": pytest.approx(0.02, rel=1e-7), "denoise": 2.5,
+                    "split_direct": False}
 
 
 def _scene_file(path, grey: float) -> str:
