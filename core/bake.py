@@ -269,12 +269,12 @@ def _sampling_noise(light: ArrivingLight, noise: np.ndarray) -> np.ndarray:
 
 
 def _denoised(light: ArrivingLight, node_lighting: np.ndarray, node_factors: np.ndarray, noise: np.ndarray,
-              distance: np.ndarray, strength: float, _report) -> np.ndarray:
+              distance: np.ndarray, strength: float, report) -> np.ndarray:
     """(N, C) ``node_lighting`` averaged with the neighbours' by its ``noise`` (N, C) and the
     ``distance`` (N,) its gather's rays went (``reconstruct.denoise``), but for the lights' light,
     which has none: taken from ``node_factors`` (N, S, 3) before and put back after."""
     lights = light.light_parts(node_factors)[0]
-    return lights + denoised(light.mesh, node_lighting - lights, noise, distance, strength)
+    return lights + denoised(light.mesh, node_lighting - lights, noise, distance, strength, report)
 
 
 def _direct_at_corners(light: ArrivingLight, node_direct: np.ndarray, node_lighting: np.ndarray,

@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mesh.discretize import Discretization
+from ..util.progress import Report, quiet
 
 # Ward's a: the largest error e_ij of a neighbour's weight (above, it counts for nothing). On Sponza,
 # the breakfast room and a small lit room, 0.5 to 0.7 lowered the error of the first two and left the
@@ -49,11 +50,12 @@ def neighbours(mesh: Discretization) -> tuple[np.ndarray, np.ndarray]:
 
 
 def denoised(mesh: Discretization, lighting: np.ndarray, standard_error: np.ndarray, distance: np.ndarray,
-             strength: float) -> np.ndarray:
+             strength: float, report: Report = quiet) -> np.ndarray:
     """The nodes' ``lighting`` G (N, C) averaged with their neighbours' by their ``standard_error``
     s (N, C) and the harmonic mean ``distance`` R (N,) their gathers' rays went (inf: they met
     nothing), alike up to about ``strength`` K standard errors apart (the module's docstring)."""
     first, second = neighbours(mesh)
+    report(0.3)
     variance = standard_error**2
     apart = variance[first] + variance[second]
     excess = (lighting[first] - lighting[second]) ** 2 - apart
@@ -64,6 +66,7 @@ def denoised(mesh: Discretization, lighting: np.ndarray, standard_error: np.ndar
     error = np.sqrt(np.einsum("ij,ij->i", offset, offset)) / np.minimum(distance[first], distance[second]) + np.sqrt(
         np.maximum(1.0 - np.einsum("ij,ij->i", normals[first], normals[second]), 0.0))
     weight = np.exp(-np.maximum(scaled.mean(axis=1), 0.0)) * np.maximum(1.0 - error / WARD_ERROR, 0.0)
+    report(0.7)
     count = len(lighting)
     total = 1.0 + np.bincount(first, weight, minlength=count)
     summed = np.stack([np.bincount(first, weight * lighting[second, c], minlength=count)
