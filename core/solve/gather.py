@@ -437,7 +437,8 @@ def _padded(values: np.ndarray, opacity: np.ndarray | None, outside: np.ndarray 
 def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray, normals: np.ndarray,
                 rays: int, seed: int = 0, report: Report = quiet, stream: int = NODE_STREAM,
                 near: bool = True, lights: DirectLighting | None = None, first: int = 0,
-                pools: np.ndarray | None = None, second_rays: int | None = None) -> GatherHits:
+                pools: np.ndarray | None = None, second_rays: int | None = None,
+                distances: bool = False) -> GatherHits:
     """Where ``rays`` (a perfect square) cosine-distributed rays from each of ``points`` (n, 3)
     facing unit ``normals`` (n, 3) stop (from one uniform point in each of the rays congruent
     squares of the unit square: jittered strata; through see-through surfaces by chance,
@@ -450,7 +451,8 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
     time: ``noisy_nodes``, ``PATCH_STREAM``), drawn per block of points from the index of its
     first, ``first`` that of ``points[0]``. Points of one ``pools`` (n,) label (the nodes of one
     vertex: ``node_pools``; None: none) gather together (the module's docstring); the points are
-    then taken in the order of their labels, and a block's index is its first's in that order."""
+    then taken in the order of their labels, and a block's index is its first's in that order.
+    With ``distances``, the hits keep each point's ``GatherHits.mean_distance``."""
     order = None
     if pools is not None:
         order = np.argsort(pools, kind="stable")
@@ -466,7 +468,7 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
     depth = NEAR_BOUNCES if near else 0
     followers = [second_rays] + [1] * (depth - 1)  # each bounce's rays per ray
 
-    def block(index: int) -> tuple[np.ndarray, list[Bounce], np.ndarray]:
+    def block(index: int) -> tuple[np.ndarray, list[Bounce], np.ndarray | None]:
         start = blocks[index]
         chosen = slice(start, blocks[index + 1])
         count = len(points[chosen])
@@ -476,15 +478,13 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
         patch, landed = surfaces.hit(origins, directions.reshape(-1, 3), np.repeat(normals[chosen], rays, axis=0),
                                      rng)
         patches, bounces, offset = patch.astype(np.int32).reshape(count, rays), [], start * rays
-        went = landed - origins
-        distance = np.sqrt(np.einsum("ij,ij->i", went, went))  # faster than np.linalg.norm on rows of 3
-        nearness = np.divide(1.0, distance, out=np.zeros_like(distance), where=(patch >= 0) & (distance > 0))
-        mean_nearness = nearness.reshape(count, rays).mean(axis=1)
-        point_distance = np.divide(1.0, mean_nearness, out=np.full(count, np.inf), where=mean_nearness > 0)
+        point_distance = None
+        if distances:
+            went = landed - origins
+            point_distance = _harmonic_mean(np.sqrt(np.einsum("ij,ij->i", went, went)), patch >= 0, count)
         for level in range(depth):
-            if level:
-                went = landed - origins
-                distance = np.sqrt(np.einsum("ij,ij->i", went, went))
+            went = landed - origins
+            distance = np.sqrt(np.einsum("ij,ij->i", went, went))  # faster than np.linalg.norm on rows of 3
             limit = (reach if level == 0 else deep_reach)[np.maximum(patch, 0)]
             close = np.flatnonzero((patch >= 0) & (distance < limit))
             bounce, origins, patch, landed = _bounce(surfaces, emitters, lights, landed[close], patch[close],
@@ -504,11 +504,21 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
         levels = [part[1][level] for part in parts] or [Bounce.empty(followers[level], light_count, index_type)]
         before = [0] * len(levels) if level == 0 else [len(part[1][level - 1].patches.reshape(-1)) for part in parts]
         bounces.append(Bounce.joined(levels, before))
-    point_distance = np.concatenate([part[2] for part in parts]) if parts else np.zeros(0)
+    point_distance = None
+    if distances:
+        point_distance = np.concatenate([part[2] for part in parts]) if parts else np.zeros(0)
     if pools is None:
         return GatherHits(patches, tuple(bounces), blocks, mean_distance=point_distance)
     return GatherHits(patches, tuple(bounces), blocks, order, pools, normals, (seed, stream, first),
-                      _unsorted(point_distance, order))
+                      None if point_distance is None else _unsorted(point_distance, order))
+
+
+def _harmonic_mean(distance: np.ndarray, met: np.ndarray, count: int) -> np.ndarray:
+    """(count,) the harmonic mean of each point's rays' ``distance`` (count x rays,) over those that
+    ``met`` a surface (inf where none did)."""
+    nearness = np.divide(1.0, distance, out=np.zeros_like(distance), where=met & (distance > 0))
+    mean_nearness = nearness.reshape(count, -1).mean(axis=1)
+    return np.divide(1.0, mean_nearness, out=np.full(count, np.inf), where=mean_nearness > 0)
 
 
 def _bounce(surfaces: Surfaces, emitters: Emitters, lights: DirectLighting | None, at: np.ndarray,

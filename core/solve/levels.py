@@ -316,7 +316,7 @@ class _Levels:
             self.kept["gather_hits"] = stages.run(
                 "final gather", (0.0, 0.25), lambda report: gather.gather_hits(
                     mesh, visibility, mesh.node_points, mesh.node_normals, rays, self.settings.seed, report,
-                    near=self._reads_near(), lights=direct, pools=self._pools(mesh, visibility)),
+                    near=self._reads_near(), lights=direct, pools=self._pools(mesh, visibility), distances=True),
                 timer="monte_carlo")
         return self.kept["gather_hits"]
 
