@@ -36,7 +36,14 @@ def projected_area(hierarchy: Hierarchy, nodes: np.ndarray, towards: np.ndarray)
     the viewer), by the bounded isotropic model of the module docstring."""
     vector = hierarchy.vector_area[nodes]
     coherent = np.einsum("kx,kx->k", vector, towards)
-    return np.maximum(coherent, 0.0) + (hierarchy.area[nodes] - np.linalg.norm(vector, axis=1)) / 4
+    return np.maximum(coherent, 0.0) + _isotropic(hierarchy, nodes)
+
+
+def _isotropic(hierarchy: Hierarchy, nodes: np.ndarray) -> np.ndarray:
+    """(k,) the isotropic part (A - |V|) / 4 of the projected area of ``nodes``, never below 0: in a
+    flat node |V| = A, and rounding may leave it a hair above, which seen from the node's centre
+    (a patch lying there) made K = A_proj / (pi d^2 + A_proj) a huge negative number on Sponza."""
+    return np.maximum(hierarchy.area[nodes] - np.linalg.norm(hierarchy.vector_area[nodes], axis=1), 0.0) / 4
 
 
 def cluster_coefficients(hierarchy: Hierarchy, centers: np.ndarray, normals: np.ndarray,
@@ -64,8 +71,7 @@ def averaged_coefficients(hierarchy: Hierarchy, centers: np.ndarray, normals: np
     rays = ends - starts
     rays /= np.maximum(np.linalg.norm(rays, axis=2, keepdims=True), np.finfo(float).tiny)
     vector = hierarchy.vector_area[sources]
-    seen = np.maximum(-np.einsum("knx,kx->kn", rays, vector), 0.0) \
-        + ((hierarchy.area[sources] - np.linalg.norm(vector, axis=1)) / 4)[:, None]
+    seen = np.maximum(-np.einsum("knx,kx->kn", rays, vector), 0.0) + _isotropic(hierarchy, sources)[:, None]
     cosine = np.where(np.any(normals != 0, axis=1)[:, None], np.maximum(np.einsum("knx,kx->kn", rays, normals), 0.0),
                       1.0)
     return (seen * cosine / np.maximum(np.pi * distance2[:, None] + seen, np.finfo(float).tiny)).mean(axis=1)

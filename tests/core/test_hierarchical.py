@@ -3,6 +3,7 @@ against exact answers: the tree's invariants, the furnace, two parallel squares 
 catalogue), a thin wall between a lit and a dark room, and the converged bake of the sample Cornell
 box; the memory guard and determinism."""
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +12,8 @@ import pytest
 from core import Scene, bake, read_obj
 from core.mesh.discretize import discretised
 from core.mesh.hierarchy import build
-from tests.core.scenes import box, merge, quad, uniform
+from core.transport.links import averaged_coefficients, cluster_coefficients
+from tests.core.scenes import box, grid, merge, quad, uniform
 
 SAMPLE = Path(__file__).resolve().parents[2] / "sample_blends" / "cornell_box.obj"
 
@@ -62,6 +64,27 @@ def test_two_parallel_squares_exchange_howells_form_factor():
     result = bake(Scene(vertices, triangles, reflectance, emission), solver="hierarchical", patch_size=0.1,
                   near_field=False)
     np.testing.assert_allclose(result.triangle_radiosity[:2].mean(), 0.5 * 0.19982, rtol=0.01)
+
+
+@pytest.mark.parametrize("normal", [[0.0, -1.0, 0.0], [0.0, 0.0, 0.0]])
+def test_a_flat_node_seen_from_beside_its_centre_gives_a_form_factor_between_0_and_1(normal):
+    """A flat node's vector area V has |V| = A, which rounding may leave a hair above A. Seen from a
+    point 1e-10 from its centre in its plane (facing it, or a receiver that is not flat), the
+    isotropic part (A - |V|) / 4 of its projected area was then negative, and K = A_proj /
+    (pi d^2 + A_proj) about -1e292: on Sponza such links sent the Jacobi sweeps to infinity. The
+    exact K there is 0 (the node is seen edge-on)."""
+    mesh, _ = discretised(uniform(*grid([0, 0, 0], [1, 0, 0], [0, 1, 0], 4), 0.5, 0.0), 0.25, np.radians(30), True)
+    tree = build(mesh)
+    node = tree.root
+    assert tree.flat[node]
+    vector = tree.vector_area.copy()
+    vector[node] *= 1 + 4 * np.finfo(float).eps  # |V| a few roundings above A
+    rounded = dataclasses.replace(tree, vector_area=vector)
+    receiver = tree.center[node] + [0.0, 1e-10, 0.0]
+    for coefficients in (cluster_coefficients(rounded, receiver[None], np.array([normal]), np.array([node]))[0],
+                         averaged_coefficients(rounded, receiver[None], np.array([normal]), np.array([node]),
+                                               receiver[None, None], tree.center[node][None, None])):
+        assert 0.0 <= coefficients[0] <= 1.0
 
 
 def two_rooms(gap: float) -> Scene:
