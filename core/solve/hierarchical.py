@@ -116,9 +116,12 @@ def tree_receivers(hierarchy: Hierarchy, light: ArrivingLight) -> Receivers:
                      hierarchy.area, float(hierarchy.area[:count].mean()))
 
 
-def point_receivers(points: np.ndarray, normals: np.ndarray, reflectance: np.ndarray) -> Receivers:
+def point_receivers(points: np.ndarray, normals: np.ndarray) -> Receivers:
+    """The points where colours are read, as receivers of reflectance 1: what arrives there is a
+    result of its own (``BakeResult.corner_lighting``, the add-on's Lighting output), whatever the
+    surface reflects of it (in a room of black walls their links were never split)."""
     count = len(points)
-    return Receivers(points, np.zeros(count), normals, np.einsum("kx,kx->k", normals, points), reflectance.max(axis=1),
+    return Receivers(points, np.zeros(count), normals, np.einsum("kx,kx->k", normals, points), np.ones(count),
                      np.zeros(count, dtype=bool), np.ones(count, dtype=bool), points, normals, np.ones(count), 1.0)
 
 
@@ -326,6 +329,27 @@ def energy_factors(total: np.ndarray, closed: bool) -> np.ndarray:
     return 1.0 / safe if closed else np.minimum(1.0, 1.0 / safe)
 
 
+def point_light(hierarchy: Hierarchy, links: Links, radiosity: np.ndarray, points: int, closed: bool) -> np.ndarray:
+    """(points, C) what each point gathers over its ``links`` from node ``radiosity`` (H, C). The
+    links from patches carry exact form factors, those from clusters approximations; so where the
+    form factors must sum to 1 (``energy_factors``) the clusters' make up what the exact ones leave,
+    and the exact ones are scaled only where they alone sum to more than 1 (by rounding). Scaling
+    every link alike let a poor approximation of black walls a point sits beside multiply the exact
+    light of a source it sees (a black room's floor read 2.8 times its ceiling's light)."""
+    exact = links.source < hierarchy.leaf_count
+    parts = []
+    for chosen in (exact, ~exact):
+        part = links[chosen]
+        parts.append((gathered(hierarchy, part, radiosity, points)[0],  # points are flat: no directions
+                      np.bincount(part.receiver, part.coefficient, points)))
+    (exact_light, exact_total), (cluster_light, cluster_total) = parts
+    exact_scale = np.minimum(1.0, 1.0 / np.where(exact_total > 0, exact_total, 1.0))
+    room = np.maximum(1.0 - exact_total * exact_scale, 0.0)
+    wanted = room if closed else np.minimum(cluster_total, room)
+    cluster_scale = np.divide(wanted, cluster_total, out=np.ones(points), where=cluster_total > 0)
+    return exact_light * exact_scale[:, None] + cluster_light * cluster_scale[:, None]
+
+
 class Solver:
     """Jacobi iterations with push-pull over the hierarchy's links."""
 
@@ -429,14 +453,12 @@ def solve(light: ArrivingLight, patch_direct: np.ndarray, node_direct: np.ndarra
     solver.link(links)
     radiosity, stats = stages.run("solving", (0.65, 0.8), solver.iterate, links, radiosity, settings.tolerance,
                                   timer="solve")
-    points = Refiner(hierarchy, light, point_receivers(mesh.node_points, mesh.node_normals, mesh.node_reflectance),
+    points = Refiner(hierarchy, light, point_receivers(mesh.node_points, mesh.node_normals),
                      False, settings.seed + 1, settings.memory_budget)
     node_links = stages.run("gathering at vertices", (0.8, 1.0), points.refine,
                             (np.arange(mesh.node_count), np.full(mesh.node_count, hierarchy.root)), radiosity,
                             threshold, timer="gather")
-    total = np.bincount(node_links.receiver, node_links.coefficient, mesh.node_count)  # points are flat
-    node_lighting = node_direct + gathered(hierarchy, node_links, radiosity, mesh.node_count)[0] \
-        * energy_factors(total, solver.closed)[:, None]
+    node_lighting = node_direct + point_light(hierarchy, node_links, radiosity, mesh.node_count, solver.closed)
     patch_radiosity = _unsorted(hierarchy, radiosity)
     stats |= {"links": len(links), "vertex_links": len(node_links), "hierarchy_nodes": hierarchy.node_count,
               "refinement_rounds": tree.rounds + points.rounds}
