@@ -1,8 +1,9 @@
 """How a bake's time and peak memory grow with the scene: the Cornell box with a hole in its ceiling
 (bench/scenes.py "cornell") tiled k x k, each copy its own closed room with its own light, baked
 with the defaults (which shoot to the tolerance or go by Monte Carlo as the estimated cost of
-shooting decides) and with the large scenes' path (Monte Carlo, 64 gather rays) at every size, the
-patch size always one box's default (the automatic one grows with the scene's extent).
+shooting decides), with the large scenes' path (Monte Carlo, 64 gather rays) at every size and with
+hierarchical radiosity, the patch size always one box's default (the automatic one grows with the
+scene's extent).
 Writes docs/results/growth.md and growth.png.
 
 The target (issue 21): the log-log slope of time and of peak memory against the triangle count at
@@ -23,14 +24,14 @@ from bench import machine, markdown, scenes
 from bench.markdown import MIB, table
 from bench.paths import reports, shown
 from bench.runner import in_fresh_process
-from core import Scene, bake
+from core import BakeSettings, Scene, bake
 from core.settings import AUTO_PATCH_DIVISIONS, LARGE_SCENE_SHOOTING
 
 STUDY = "growth"
 TARGET_SLOPE = 1.15
 SPACING = 1.1  # copies this many box widths apart: walls never touch
-SERIES = {"defaults": {}, "Monte Carlo 64": {"monte_carlo_rays": 64}}
-TILES = {"defaults": (1, 2, 4, 8), "Monte Carlo 64": (1, 2, 4, 8)}
+SERIES = {"defaults": {}, "Monte Carlo 64": {"monte_carlo_rays": 64}, "hierarchical": {"solver": "hierarchical"}}
+TILES = {"defaults": (1, 2, 4, 8), "Monte Carlo 64": (1, 2, 4, 8), "hierarchical": (1, 2, 4, 8)}
 QUICK_TILES = (1, 2)
 TIMEOUT = 1800.0
 
@@ -55,7 +56,8 @@ def measure(side: int, knobs: dict) -> dict:
     result = bake(scene, patch_size=one.extent / AUTO_PATCH_DIVISIONS, **knobs)
     return {"seconds": time.perf_counter() - start, "triangles": len(scene.triangles),
             "patches": result.stats["patches"], "nodes": result.stats["nodes"], "stages": result.stats["seconds"],
-            "monte_carlo_rays": result.stats["settings"]["monte_carlo_rays"]}
+            "monte_carlo_rays": result.stats["settings"]["monte_carlo_rays"] if result.stats["solver"] == "progressive"
+            else 0}
 
 
 def slope(counts: list[float], values: list[float]) -> float:
@@ -97,7 +99,9 @@ def figure(results: dict[str, list[dict]], path) -> None:
     plt.close(fig)
 
 
-def report(results: dict[str, list[dict]], header: dict, minutes: float, quick: bool, picture: str) -> str:
+def report(results: dict[str, list[dict]], header: dict, minutes: float, quick: bool, picture: str,
+           stopped: dict[str, str]) -> str:
+    """The report; ``stopped``: per series that stopped before its largest size, at which and why."""
     rows, verdicts = [], []
     for name, found in results.items():
         for row in found:
@@ -113,6 +117,8 @@ def report(results: dict[str, list[dict]], header: dict, minutes: float, quick: 
                             f"peak memory slope **{memory_slopes[0]:.2f}** ({memory_slopes[1]:.2f} at the last step) "
                             f"(target at most {TARGET_SLOPE:g}, fitted and at the last step: "
                             f"{'met' if max(*time_slopes, *memory_slopes) <= TARGET_SLOPE else 'not met'}).")
+        if name in stopped:
+            verdicts.append(f"- {name} stopped: {stopped[name]}.")
     about = ("Options: `--quick`. The slope is the least-squares fit of log(value) against log(triangles) over "
              "a series' sizes; the last step's, between its two largest sizes.")
     return "\n".join([
@@ -122,6 +128,8 @@ def report(results: dict[str, list[dict]], header: dict, minutes: float, quick: 
         f"- The defaults shoot to the tolerance below {LARGE_SCENE_SHOOTING:,} form factors per round of shots, "
         "patches x (patches + nodes), and go by Monte Carlo from there on (`core.settings.auto_monte_carlo_rays`): "
         "the column \"Monte Carlo rays\" says which.",
+        "- hierarchical: `solver=\"hierarchical\"` at its own defaults (link tolerance "
+        f"{BakeSettings().link_tolerance:g}), never chosen automatically: docs/methods.md says where it stands.",
         "",
         *verdicts,
         "",
@@ -142,7 +150,7 @@ def main(argv: list[str]) -> int:
         return 2
     start = time.perf_counter()
     header = machine.opening()
-    results = {}
+    results, stopped = {}, {}
     for name, knobs in SERIES.items():
         results[name] = []
         for side in QUICK_TILES if options.quick else TILES[name]:
@@ -150,13 +158,14 @@ def main(argv: list[str]) -> int:
             outcome = in_fresh_process(measure, side, knobs, timeout=TIMEOUT)
             if not outcome.ok:
                 print(f"  {outcome.status}: the series stops here", flush=True)
+                stopped[name] = f"at {side * side} copies, {outcome.status}"
                 break
             results[name].append(outcome.value | {"copies": side * side, "peak": outcome.peak})
             print(f"  {outcome.value['seconds']:.1f} s, {outcome.peak / MIB:.0f} MiB", flush=True)
     header |= machine.closing(header)
     folder = reports(options.quick)
     figure(results, folder / f"{STUDY}.png")
-    text = report(results, header, (time.perf_counter() - start) / 60, options.quick, f"{STUDY}.png")
+    text = report(results, header, (time.perf_counter() - start) / 60, options.quick, f"{STUDY}.png", stopped)
     markdown.write(text, folder / f"{STUDY}.md")
     print(f"wrote {shown(folder / f'{STUDY}.png')}")
     return 0

@@ -16,6 +16,10 @@ from core.settings import (
 )
 
 ONLY_FOR = {"hemicube_resolution": "hemicube", "rays_per_form_factor": "raycast"}  # knobs of one method
+# knobs of some solvers: the hierarchical one splits links by link_tolerance and refines no levels
+SOLVERS_OF = {"link_tolerance": ("hierarchical",), "refinement_levels": ("progressive", "jacobi", "gauss_seidel")}
+EXPLICIT = ("jacobi", "gauss_seidel")  # the solvers of a P x P matrix
+LINK_TOLERANCES = (0.1, 0.03, 0.003, 0.001)  # about the default 0.01
 
 
 @dataclass(frozen=True)
@@ -34,6 +38,7 @@ class Sweep:
         "tolerance": (1e-1, 1e-2, 1e-3, 1e-4),
         "refinement_levels": (1, 2, 3),
         "merge_flat": (False,),
+        "link_tolerance": LINK_TOLERANCES,
     })
     combos: tuple[tuple[str, str], ...] = COMBOS
     tolerance_only: tuple[str, ...] = ("gauss_seidel",)
@@ -67,16 +72,19 @@ class PathTraced:
 
 FULL = {
     "furnace": Sweep(
-        divisions=(2, 4, 8), values={"hemicube_resolution": (16, 32, 64, 128), "tolerance": (1e-1, 1e-2, 1e-3, 1e-4)},
+        divisions=(2, 4, 8), values={"hemicube_resolution": (16, 32, 64, 128), "tolerance": (1e-1, 1e-2, 1e-3, 1e-4),
+                                     "link_tolerance": LINK_TOLERANCES},
         presets=("DRAFT", "PREVIEW", "PRODUCTION"),
         note="Not swept: the rays (nothing occludes, so every visibility is 1 whatever the rays) and refinement "
         "(the radiosity is uniform, so no patch is split); the REFERENCE preset (tens of seconds a bake) is left out."),
     "parallel_squares": Sweep(
         divisions=(2, 4, 8, 16),
-        values={"hemicube_resolution": (16, 32, 64, 128), "tolerance": (1e-1, 1e-2, 1e-3, 1e-4)},
+        values={"hemicube_resolution": (16, 32, 64, 128), "tolerance": (1e-1, 1e-2, 1e-3, 1e-4),
+                "link_tolerance": LINK_TOLERANCES},
         note="Not swept: the rays (nothing occludes) and refinement."),
     "cie_room": Sweep(
-        divisions=(2, 4, 8), values={"hemicube_resolution": (16, 32, 64, 128), "refinement_levels": (1, 2)},
+        divisions=(2, 4, 8), values={"hemicube_resolution": (16, 32, 64, 128), "refinement_levels": (1, 2),
+                                     "link_tolerance": LINK_TOLERANCES},
         presets=("DRAFT", "PREVIEW", "PRODUCTION"),
         note="Not swept: the rays (nothing occludes) and the tolerance (black walls: all light is shot in the "
         "source's first shots); the REFERENCE preset (a minute a bake) is left out."),
@@ -87,7 +95,7 @@ FULL = {
                      "solvers stop at patch size extent / 12 (2,318 patches before refinement)."),
     "sponza": Sweep(
         divisions=(4, 16), values={"monte_carlo_rays": (16, 256, 1024), "rays_per_form_factor": (1, 16),
-                                   "max_shots": (300,), "near_field": (False,)},
+                                   "max_shots": (300,), "near_field": (False,), "denoise": (0.0, 1.0, 6.0)},
         combos=(("raycast", "progressive"),), presets=(),
         base=(("monte_carlo_rays", LARGE_SCENE_MONTE_CARLO_RAYS), ("rays_per_form_factor", 4)), timeout=900.0,
         note="Sponza is large for these methods: shooting to convergence takes about a shot per patch, each to "
@@ -111,8 +119,8 @@ QUICK = {
                               combos=(("raycast", "progressive"), ("hemicube", "jacobi")), presets=("DRAFT",)),
     "furnace": Sweep(divisions=(4,), values={"tolerance": (1e-2,)},
                      combos=(("raycast", "progressive"), ("raycast", "jacobi")), presets=()),
-    "cornell": Sweep(divisions=(4,), values={"tolerance": (1e-2,)}, combos=(("raycast", "progressive"),),
-                     presets=("DRAFT",)),
+    "cornell": Sweep(divisions=(4,), values={"tolerance": (1e-2,), "link_tolerance": (0.03,)},
+                     combos=(("raycast", "progressive"), ("raycast", "hierarchical")), presets=("DRAFT",)),
 }
 REFERENCES = {
     "cornell": Reference("raycast", "jacobi", 24, (("probe_rays", False), ("rays_per_form_factor", 16),
@@ -131,9 +139,9 @@ def scene_of(name: str) -> Scene:
     return exact.PROBLEMS[name]().scene if name in exact.PROBLEMS else scenes.load(name)
 
 
-def uses(method: str, knob: str) -> bool:
-    """Whether bakes by ``method`` depend on ``knob`` (in scenes without lights or sky)."""
-    return ONLY_FOR.get(knob, method) == method
+def uses(method: str, solver: str, knob: str) -> bool:
+    """Whether bakes by ``method`` and ``solver`` depend on ``knob`` (in scenes without lights or sky)."""
+    return ONLY_FOR.get(knob, method) == method and solver in SOLVERS_OF.get(knob, (solver,))
 
 
 def make_case(name: str, scene: Scene, method: str, solver: str, divisions: int, knobs: dict,
@@ -153,11 +161,11 @@ def variations(method: str, solver: str, sweep: Sweep) -> list[tuple[str, int, d
     if not tolerance_only:
         result += [("patch_size", divisions, {}) for divisions in sweep.divisions]
     for knob, values in sweep.values.items():
-        if uses(method, knob) and (knob == "tolerance" or not tolerance_only):
+        if uses(method, solver, knob) and (knob == "tolerance" or not tolerance_only):
             result += [(knob, AUTO_PATCH_DIVISIONS, {knob: value}) for value in values]
     for name in sweep.presets:
         knobs = {key: value for key, value in preset_knobs(name, 1.0).items()
-                 if key != "patch_size" and uses(method, key)}
+                 if key != "patch_size" and uses(method, solver, key)}
         result.append((f"preset:{name}", PRESETS[name].patch_divisions, knobs))
     return result
 
@@ -175,7 +183,7 @@ def plan(name: str, scene: Scene, sweep: Sweep) -> tuple[list[Case], list[Record
                 previous = cases[case.key]
                 cases[case.key] = Case(*case.key, divisions, previous.tags + (tag,) * (tag not in previous.tags))
                 continue
-            if solver != "progressive":
+            if solver in EXPLICIT:
                 count = patches.setdefault(divisions, discretize(scene, scene.extent / divisions).patch_count)
                 if count > sweep.explicit_patches:
                     skipped.append(Record(case, status=f"skipped: a {count:,} x {count:,} matrix"))

@@ -16,8 +16,8 @@ from bench.markdown import MIB  # noqa: E402
 from bench.studies.tradeoffs_records import COMBOS, Record, pareto_front  # noqa: E402
 
 ERROR_FLOOR = 1e-6  # errors below this (exact to rounding) are drawn at it
-COLOURS = dict(zip(COMBOS, ("tab:blue", "tab:cyan", "tab:purple", "tab:orange", "tab:red", "tab:brown")))
-MARKERS = {"progressive": "o", "jacobi": "s", "gauss_seidel": "^"}
+COLOURS = dict(zip(COMBOS, ("tab:blue", "tab:cyan", "tab:purple", "tab:orange", "tab:red", "tab:brown", "tab:green")))
+MARKERS = {"progressive": "o", "jacobi": "s", "gauss_seidel": "^", "hierarchical": "D"}
 PANEL_TITLES = {
     "patch_size": "patch size (extent / d)",
     "hemicube_resolution": "hemicube resolution",
@@ -28,6 +28,8 @@ PANEL_TITLES = {
     "monte_carlo_rays": "Monte Carlo: final-gather rays per vertex",
     "near_field": "near field on (1) or off (0)",
     "merge_flat": "flat regions merged (1) or not (0)",
+    "link_tolerance": "hierarchical: link tolerance",
+    "denoise": "Monte Carlo: denoise strength (0: off)",
 }
 PRESET_LETTERS = {"DRAFT": "D", "PREVIEW": "Pv", "PRODUCTION": "Pr", "REFERENCE": "R"}
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from core import BakeSettings
 
 COMBOS = tuple((method, solver) for method in ("raycast", "hemicube")
-               for solver in ("progressive", "jacobi", "gauss_seidel"))
+               for solver in ("progressive", "jacobi", "gauss_seidel")) + (("raycast", "hierarchical"),)
 
 
 @dataclass(frozen=True)
