@@ -45,9 +45,9 @@ def test_the_hierarchy_is_a_binary_tree_over_the_patches_with_each_panel_side_a_
 @pytest.mark.parametrize("rho", [0.5, 0.9, 0.999])
 def test_a_furnace_bakes_to_emission_over_one_minus_reflectance(rho):
     """A closed box emitting and reflecting uniformly: B = E / (1 - rho) everywhere. In a closed
-    scene the links' form factors are scaled to sum to 1 (``energy_factors``) and the sweeps
-    extrapolate the slowest mode, so even rho = 0.999 is exact to rounding (measured 2e-7 at 0.5,
-    1e-12 at 0.999; the issue asks 0.1 %)."""
+    scene the links' form factors are made to sum to 1 (``energy_factors`` at the patches,
+    ``point_light`` at the vertices) and the sweeps extrapolate the slowest mode, so even rho =
+    0.999 is exact to rounding (measured 2e-7 at 0.5, 1e-12 at 0.999; the issue asks 0.1 %)."""
     result = bake(uniform(*box(), rho, 1.0), solver="hierarchical", tolerance=1e-6, patch_size=0.3)
     np.testing.assert_allclose(result.triangle_radiosity, 1 / (1 - rho), rtol=1e-3)
     np.testing.assert_allclose(result.corner_colors, 1 / (1 - rho), rtol=1e-3)
