@@ -16,9 +16,10 @@ Solving: a Jacobi iteration over the links, each gathering K B_s into its receiv
 push-pull: what a node gathered is pushed down to its patches (a flat node's as it is; a cluster
 that is not flat gathers the light's directions in spherical harmonics of order 2, which each
 patch reads with its own normal: Ramamoorthi and Hanrahan 2001), each patch's radiosity is
-E + rho (direct + gathered), and clusters take their patches' area-weighted mean (pull). The
-links are refined again from the solved radiosity with the final threshold (multigridding), and
-solved again from where they were.
+E + rho (direct + gathered), and clusters take their patches' area-weighted mean (pull). In a
+closed scene each receiver's form factors are made to sum to 1 by its approximate links alone
+(``energy_factors``). The links are refined again from the solved radiosity with the final
+threshold (multigridding), and solved again from where they were.
 
 The receiver nodes (vertex colours) gather from the converged hierarchy through links of their
 own, refined the same way by the light arriving (``point_receivers``): exact form factors near
@@ -322,36 +323,35 @@ def gathered(hierarchy: Hierarchy, links: Links, radiosity: np.ndarray, receiver
     return scalar, harmonic
 
 
-def energy_factors(total: np.ndarray, closed: bool) -> np.ndarray:
-    """(k,) what to multiply each receiver's gathered light by, given the sum ``total`` (k,) of its
-    links' form factors: in a ``closed`` scene (no closure ray of any patch escaped) every
-    receiver's form factors sum to exactly 1, so they are scaled to it, which the cluster links'
-    approximations miss by a few percent (a furnace of reflectance 0.999 amplifies that a
-    thousandfold); in an open one, no receiver's may sum to more than 1 (the solve would not
-    converge as rho -> 1)."""
-    safe = np.where(total > 0, total, 1.0)
-    return 1.0 / safe if closed else np.minimum(1.0, 1.0 / safe)
+def energy_factors(exact_total: np.ndarray, approximate_total: np.ndarray,
+                   closed: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(k,), (k,): what to multiply each receiver's light through its exact links (patch to patch,
+    or to a point) and through its approximate ones (a cluster at either end) by, given the sums
+    (k,) of their form factors. In a ``closed`` scene (no closure ray of any patch escaped) every
+    receiver's form factors sum to exactly 1, which the approximations miss by a few percent (a
+    furnace of reflectance 0.999 amplifies that a thousandfold): the approximate ones make up what
+    the exact ones leave (the exact ones scaled to 1 only where there are none). In an open one,
+    none may sum to more than 1 (the solve would not converge as rho -> 1). The exact ones are
+    scaled down only where they alone sum to more than 1 (by rounding). Scaling every link alike
+    let a poor approximation of black walls beside a receiver multiply the exact light of a
+    source it sees (a black room's floor read 2.8 times its ceiling's light)."""
+    inverse = 1.0 / np.where(exact_total > 0, exact_total, 1.0)
+    exact_scale = np.where(closed & (approximate_total <= 0), inverse, np.minimum(1.0, inverse))
+    room = np.maximum(1.0 - exact_total * exact_scale, 0.0)
+    wanted = room if closed else np.minimum(approximate_total, room)
+    approximate_scale = np.divide(wanted, approximate_total, out=np.ones_like(room), where=approximate_total > 0)
+    return exact_scale, approximate_scale
 
 
 def point_light(hierarchy: Hierarchy, links: Links, radiosity: np.ndarray, points: int, closed: bool) -> np.ndarray:
-    """(points, C) what each point gathers over its ``links`` from node ``radiosity`` (H, C). The
-    links from patches carry exact form factors, those from clusters approximations; so where the
-    form factors must sum to 1 (``energy_factors``) the clusters' make up what the exact ones leave,
-    and the exact ones are scaled only where they alone sum to more than 1 (by rounding). Scaling
-    every link alike let a poor approximation of black walls a point sits beside multiply the exact
-    light of a source it sees (a black room's floor read 2.8 times its ceiling's light)."""
+    """(points, C) what each point gathers over its ``links`` from node ``radiosity`` (H, C): the
+    links from patches carry exact form factors, those from clusters approximations, each scaled
+    by their ``energy_factors``."""
     exact = links.source < hierarchy.leaf_count
-    parts = []
-    for chosen in (exact, ~exact):
-        part = links[chosen]
-        parts.append((gathered(hierarchy, part, radiosity, points)[0],  # points are flat: no directions
-                      np.bincount(part.receiver, part.coefficient, points)))
-    (exact_light, exact_total), (cluster_light, cluster_total) = parts
-    exact_scale = np.minimum(1.0, 1.0 / np.where(exact_total > 0, exact_total, 1.0))
-    room = np.maximum(1.0 - exact_total * exact_scale, 0.0)
-    wanted = room if closed else np.minimum(cluster_total, room)
-    cluster_scale = np.divide(wanted, cluster_total, out=np.ones(points), where=cluster_total > 0)
-    return exact_light * exact_scale[:, None] + cluster_light * cluster_scale[:, None]
+    parts = [links[chosen] for chosen in (exact, ~exact)]
+    totals = [np.bincount(part.receiver, part.coefficient, points) for part in parts]
+    return sum(gathered(hierarchy, part, radiosity, points)[0] * scale[:, None]  # points are flat: no directions
+               for part, scale in zip(parts, energy_factors(*totals, closed)))
 
 
 class Solver:
@@ -367,14 +367,17 @@ class Solver:
         self.levels = hierarchy.by_depth()
         self.closed = bool(enclosed(light.engine.visibility, light.engine.receiving_points[hierarchy.patch],
                                     mesh.patch_normals[hierarchy.patch], np.random.default_rng([seed, 3])).all())
-        self.factor = np.ones((hierarchy.leaf_count, 1))
+        self.parts: list[tuple[Links, np.ndarray]] = []
 
     def link(self, links: Links) -> None:
-        """Take ``links`` for the next sweeps: their form factors' sums per leaf set each leaf's
-        ``energy_factors``."""
-        self.factor = np.ones((self.hierarchy.leaf_count, 1))
-        ones = np.ones((self.hierarchy.node_count, 1))
-        self.factor = energy_factors(self.leaf_light(links, ones)[:, 0], self.closed)[:, None]
+        """Take ``links`` for the next sweeps: the exact ones (patch to patch) apart from the
+        approximate ones, each with the ``energy_factors`` of their form factors' sums per leaf."""
+        h = self.hierarchy
+        exact = (links.source < h.leaf_count) & (links.receiver < h.leaf_count)
+        parts = [links[chosen] for chosen in (exact, ~exact)]
+        ones = np.ones((h.node_count, 1))
+        totals = [self._gathered(part, ones)[:, 0] for part in parts]
+        self.parts = [(part, scale[:, None]) for part, scale in zip(parts, energy_factors(*totals, self.closed))]
 
     def start(self) -> np.ndarray:
         """Node radiosity (H, C) of emission and direct light alone."""
@@ -392,8 +395,13 @@ class Solver:
         radiosity[internal:] = weighted[internal:] / np.maximum(h.area[internal:], np.finfo(float).tiny)[:, None]
         return radiosity
 
-    def leaf_light(self, links: Links, radiosity: np.ndarray) -> np.ndarray:
-        """(P, C) the light G each leaf gathers through ``links``, its ancestors' pushed down."""
+    def leaf_light(self, radiosity: np.ndarray) -> np.ndarray:
+        """(P, C) the light G each leaf gathers from node ``radiosity`` (H, C) through the links
+        taken (``link``), each part scaled by its energy factors."""
+        return sum(self._gathered(part, radiosity) * scale for part, scale in self.parts)
+
+    def _gathered(self, links: Links, radiosity: np.ndarray) -> np.ndarray:
+        """(P, C) the light each leaf gathers through ``links``, its ancestors' pushed down."""
         h = self.hierarchy
         scalar, harmonic = gathered(h, links, radiosity, h.node_count)
         for nodes in self.levels:  # root first
@@ -401,10 +409,9 @@ class Solver:
                 scalar[child] += scalar[nodes]
                 harmonic[child] += harmonic[nodes]
         leaves = h.leaf_count
-        light = scalar[:leaves] + np.maximum(np.einsum("pj,pjc->pc", self.leaf_basis, harmonic[:leaves]), 0.0)
-        return light * self.factor
+        return scalar[:leaves] + np.maximum(np.einsum("pj,pjc->pc", self.leaf_basis, harmonic[:leaves]), 0.0)
 
-    def iterate(self, links: Links, radiosity: np.ndarray, tolerance: float, report: Report) -> tuple[np.ndarray, dict]:
+    def iterate(self, radiosity: np.ndarray, tolerance: float, report: Report) -> tuple[np.ndarray, dict]:
         """Jacobi sweeps from ``radiosity`` (H, C) until what is left to come, estimated from the
         last change and the rate r at which changes shrink (the sum of the changes still to come,
         r / (1 - r) times the last), is at most ``tolerance`` of the largest radiosity; the result
@@ -416,7 +423,7 @@ class Solver:
         fastest = float(self.reflectance.max())
         left, iterations, totals = np.inf, 0, []
         while iterations < MAX_ITERATIONS:
-            leaf = self.emission + self.reflectance * (self.direct + self.leaf_light(links, radiosity))
+            leaf = self.emission + self.reflectance * (self.direct + self.leaf_light(radiosity))
             change = leaf - radiosity[:leaves]
             totals.append(area @ change)  # (C,) signed
             rate = _settled_rate(totals, fastest)
@@ -449,13 +456,13 @@ def solve(light: ArrivingLight, patch_direct: np.ndarray, node_direct: np.ndarra
     links = stages.run("linking", (0.05, 0.3), tree.refine, (root, root), np.maximum(radiosity, expected),
                        COARSE * threshold, timer="links")
     solver.link(links)
-    radiosity, stats = stages.run("solving", (0.3, 0.45), solver.iterate, links, radiosity, settings.tolerance,
+    radiosity, stats = stages.run("solving", (0.3, 0.45), solver.iterate, radiosity, settings.tolerance,
                                   timer="solve")
     threshold = settings.link_tolerance * max(radiosity_scale(mesh, _unsorted(hierarchy, radiosity)), np.finfo(float).tiny)
     links = stages.run("linking", (0.45, 0.65), tree.refine, (links.receiver, links.source), radiosity, threshold,
                        timer="links")
     solver.link(links)
-    radiosity, stats = stages.run("solving", (0.65, 0.8), solver.iterate, links, radiosity, settings.tolerance,
+    radiosity, stats = stages.run("solving", (0.65, 0.8), solver.iterate, radiosity, settings.tolerance,
                                   timer="solve")
     points = Refiner(hierarchy, light, point_receivers(mesh.node_points, mesh.node_normals),
                      False, settings.seed + 1, settings.memory_budget)

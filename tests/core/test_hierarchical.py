@@ -112,6 +112,33 @@ def test_the_light_arriving_in_a_black_room_is_the_sources_exact_form_factor():
     np.testing.assert_allclose(result.corner_lighting[~source].reshape(-1, 3)[:, 0], exact, atol=1e-3)
 
 
+def test_a_patch_lit_in_a_black_room_reflects_its_exact_form_factor_to_the_source():
+    """The black room above with a grey floor (reflectance 0.5): each floor patch reflects 0.5
+    F(centroid -> source), its exact links' light, since no wall reflects and the floor does not see
+    itself. In a closed scene every link was scaled alike to sum to 1, so the approximate links to
+    the black walls beside the floor scaled its exact light too: 2.8 % dark at patches of 0.25,
+    1.6 % at 0.1. Now only they make up what the exact links leave (``energy_factors``): exact to
+    rounding (measured 3e-15)."""
+    walls = box()
+    walls = walls[0], np.delete(walls[1], [2, 3], axis=0)
+    vertices, triangles = merge(walls, grid([0, 0, 1], [0, 1, 0], [1, 0, 0], 3))
+    source = np.zeros(len(triangles), dtype=bool)
+    source[[10 + 4, 10 + 13]] = True
+    floor = np.flatnonzero(np.isclose(vertices[triangles][:, :, 2], 0).all(axis=1))
+    reflectance = np.zeros((len(triangles), 3))
+    reflectance[floor] = 0.5
+    scene = Scene(vertices, triangles, reflectance, np.where(source[:, None], 1.0, 0.0) * np.ones(3))
+    result = bake(scene, solver="hierarchical", patch_size=0.25, merge_flat=False)
+    mesh, _ = discretised(scene, 0.25, np.radians(30), False)
+    on_floor = np.isin(mesh.patch_triangle, floor)
+    points, normals = mesh.patch_centroids[on_floor], mesh.patch_normals[on_floor]
+    exact = sum(point_to_triangle(points, normals, np.broadcast_to(vertices[triangles[t]], (len(points), 3, 3)))
+                for t in np.flatnonzero(source))
+    areas, owner = mesh.patch_areas[on_floor], mesh.patch_triangle[on_floor]
+    expected = [0.5 * areas[owner == t] @ exact[owner == t] / areas[owner == t].sum() for t in floor]
+    np.testing.assert_allclose(result.triangle_radiosity[floor, 0], expected, rtol=1e-9)
+
+
 def two_rooms(gap: float) -> Scene:
     """Two unit rooms side by side, x in [0, 1] and [1 + gap, 2 + gap], closed boxes facing in;
     the first has an emitting ceiling."""
