@@ -344,14 +344,23 @@ def energy_factors(exact_total: np.ndarray, approximate_total: np.ndarray,
 
 
 def point_light(hierarchy: Hierarchy, links: Links, radiosity: np.ndarray, points: int, closed: bool) -> np.ndarray:
-    """(points, C) what each point gathers over its ``links`` from node ``radiosity`` (H, C): the
-    links from patches carry exact form factors, those from clusters approximations, each scaled
-    by their ``energy_factors``."""
-    exact = links.source < hierarchy.leaf_count
-    parts = [links[chosen] for chosen in (exact, ~exact)]
+    """(points, C) what each point gathers over its ``links`` (reordered in place: ``_partitioned``)
+    from node ``radiosity`` (H, C): the links from patches carry exact form factors, those from
+    clusters approximations, each scaled by their ``energy_factors``."""
+    parts = _partitioned(links, links.source < hierarchy.leaf_count)
     totals = [np.bincount(part.receiver, part.coefficient, points) for part in parts]
     return sum(gathered(hierarchy, part, radiosity, points)[0] * scale[:, None]  # points are flat: no directions
                for part, scale in zip(parts, energy_factors(*totals, closed)))
+
+
+def _partitioned(links: Links, exact: np.ndarray) -> list[Links]:
+    """``links`` reordered in place, those where ``exact`` (n,) bool first (in their order), and
+    the two parts as views of it: a copy of each part would double the links' memory."""
+    order = np.argsort(~exact, kind="stable")
+    for values in (links.receiver, links.source, links.coefficient, links.direction):
+        values[:] = values[order]
+    count = int(np.count_nonzero(exact))
+    return [links[:count], links[count:]]
 
 
 class Solver:
@@ -370,11 +379,11 @@ class Solver:
         self.parts: list[tuple[Links, np.ndarray]] = []
 
     def link(self, links: Links) -> None:
-        """Take ``links`` for the next sweeps: the exact ones (patch to patch) apart from the
-        approximate ones, each with the ``energy_factors`` of their form factors' sums per leaf."""
+        """Take ``links`` for the next sweeps (reordered in place: ``_partitioned``): the exact
+        ones (patch to patch) apart from the approximate ones, each with the ``energy_factors`` of
+        their form factors' sums per leaf."""
         h = self.hierarchy
-        exact = (links.source < h.leaf_count) & (links.receiver < h.leaf_count)
-        parts = [links[chosen] for chosen in (exact, ~exact)]
+        parts = _partitioned(links, (links.source < h.leaf_count) & (links.receiver < h.leaf_count))
         ones = np.ones((h.node_count, 1))
         totals = [self._gathered(part, ones)[:, 0] for part in parts]
         self.parts = [(part, scale[:, None]) for part, scale in zip(parts, energy_factors(*totals, self.closed))]
