@@ -9,8 +9,8 @@ import math
 import pytest
 
 from core.cli import parser
-from core.settings import (KNOBS, LARGE_SCENE_MONTE_CARLO_RAYS, LARGE_SCENE_SHOOTING, BakeSettings, given_knobs,
-                           knob_table, resolved, with_monte_carlo)
+from core.settings import (KNOBS, LARGE_SCENE_MONTE_CARLO_RAYS, LARGE_SCENE_SHOOTING, LINE_TOLERANCE, BakeSettings,
+                           given_knobs, knob_table, resolved, with_monte_carlo)
 
 
 def test_bake_settings_has_the_knobs_in_order_with_their_defaults():
@@ -73,6 +73,15 @@ def test_resolved_decides_the_automatic_knobs():
     assert with_monte_carlo(settings, patches, nodes).monte_carlo_rays == LARGE_SCENE_MONTE_CARLO_RAYS
     assert with_monte_carlo(BakeSettings(monte_carlo_rays=16), patches, nodes).monte_carlo_rays == 16
     assert with_monte_carlo(BakeSettings(monte_carlo_rays=0), 10**5, 10**5).monte_carlo_rays == 0
+    # a tighter tolerance than LINE_TOLERANCE moves the line up with it (the Reference preset's 1e-4: ten
+    # times as far); a looser one leaves it
+    tight = resolved(BakeSettings(tolerance=LINE_TOLERANCE / 10), extent=8.0)
+    nodes = -(-10 * LARGE_SCENE_SHOOTING // patches) - patches
+    assert with_monte_carlo(tight, patches, nodes - 1).monte_carlo_rays == 0
+    assert with_monte_carlo(tight, patches, nodes).monte_carlo_rays == LARGE_SCENE_MONTE_CARLO_RAYS
+    loose = resolved(BakeSettings(tolerance=LINE_TOLERANCE * 10), extent=8.0)
+    nodes = -(-LARGE_SCENE_SHOOTING // patches) - patches
+    assert with_monte_carlo(loose, patches, nodes).monte_carlo_rays == LARGE_SCENE_MONTE_CARLO_RAYS
 
 
 def test_the_command_line_offers_every_exposed_knob_by_its_name():
