@@ -188,7 +188,7 @@ AUTO_PATCH_DIVISIONS = 8
 # tolerance, LINE_TOLERANCE; a tighter one asks for the light to be shot further and accepts the wait,
 # so the line moves up with it (``auto_monte_carlo_rays``): Monte Carlo's 64 rays leave about 2 % of
 # noise whatever the tolerance, and at a fixed line the Reference preset (1e-4) read the Cornell box
-# of 40 x 40 walls (5.8e7) 2.10 % off by it in 3.4 s, against 0.22 % shot in 33 s, worse than the
+# of 40 x 40 walls (5.8e7) 2.10 % off by it in 3.4 s, against 0.22 % shot in 19 to 33 s, worse than the
 # Preview preset's 0.97 % (docs/notes/experiments.md, "Reference worse than Preview").
 LARGE_SCENE_SHOOTING = 50_000_000
 LINE_TOLERANCE = 1e-3
