@@ -153,7 +153,7 @@ class BakeSession:
         span = _spans(settings, has_direct, first=True)
         mesh, panels = stages.run("discretising", span["discretise"], discretised, scene, settings.patch_size,
                                   math.radians(settings.crease_angle), settings.merge_flat, timer="discretise")
-        settings = with_monte_carlo(settings, mesh.patch_count, mesh.node_count)
+        settings = with_monte_carlo(settings, mesh.patch_count, mesh.node_count, scene.extent)
         engine = stages.run("preparing rays", span["rays"], lambda _report: FormFactorEngine(
             mesh, method, settings.hemicube_resolution, settings.rays_per_form_factor, settings.seed,
             probing=settings.probe_rays, light_means=settings.solver == "progressive" and bool(

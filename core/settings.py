@@ -118,7 +118,9 @@ KNOBS: tuple[Knob, ...] = (
          "four times as many (up to 256) where it is noisiest (0: off, the ambient term instead); the "
          "emitters always shoot first", "rays", low=0, square=True,
          none="auto", none_means="64 where shooting to the tolerance would take minutes (patches x (patches + "
-         "vertices) from 50 million on, times 1e-3 / tolerance for a tighter tolerance), else 0"),
+         "vertices) from 50 million on; for patches finer than the scene's extent / 8, from that times the "
+         "square of their refinement, up to 4 times; for a tolerance below 1e-3, times 1e-3 / tolerance, if "
+         "more), else 0"),
     Knob("link_tolerance", float, 0.01, "Hierarchical: a link is split while the light it carries is above this "
          "share of the mean radiosity of the surfaces that do not emit", low=0, high=1, open="both"),
     Knob("denoise", float, 3.0, "Monte Carlo: average each vertex's light with its neighbours' where they lie "
@@ -185,13 +187,19 @@ AUTO_PATCH_DIVISIONS = 8
 # converge, and a shot costs a form factor at every patch and node. The Cornell box tiled 2 x 2
 # (2.2e7) shoots to the tolerance in 13 s, 4 x 4 (3.5e8) in 511 s, where Monte Carlo takes 5-7 s
 # (docs/results/growth.md); the sample Cornell box is about 1e6. That line is for the default
-# tolerance, LINE_TOLERANCE; a tighter one asks for the light to be shot further and accepts the wait,
-# so the line moves up with it (``auto_monte_carlo_rays``): Monte Carlo's 64 rays leave about 2 % of
-# noise whatever the tolerance, and at a fixed line the Reference preset (1e-4) read the Cornell box
-# of 40 x 40 walls (5.8e7) 2.10 % off by it in 3.4 s, against 0.22 % shot in 19 to 33 s, worse than the
-# Preview preset's 0.97 % (docs/notes/experiments.md, "Reference worse than Preview").
+# patches and tolerance. A bake that asks for more, finer patches than the scene's extent over
+# AUTO_PATCH_DIVISIONS or a tighter tolerance than LINE_TOLERANCE, accepts a longer wait, and Monte
+# Carlo's 64 rays leave about 2 % of noise however fine the patches or tight the tolerance: at one
+# line for all, the finer presets went by Monte Carlo where the coarser shot, and read worse. So the
+# line moves up with the square of the patches' refinement, up to MAX_REFINEMENT times (the Reference
+# preset's (16 / 8)^2), or with LINE_TOLERANCE / tolerance (Reference's 1e-4: 10 times), whichever
+# is more (``auto_monte_carlo_rays``). The Cornell box with 40 x 40 walls (5.8e7 at Reference) read
+# 2.10 % off by Monte Carlo in 3.4 s, against 0.22 % shot in 19 to 33 s and Preview's 0.97 %; its
+# 46 faces split 36 x 36 (59,616 triangles; 6.1e7 at Production) 0.251 % in 6.5 s, against 0.060 %
+# shot in 20.5 s and Preview's 0.133 % (docs/notes/experiments.md, "Reference worse than Preview").
 LARGE_SCENE_SHOOTING = 50_000_000
 LINE_TOLERANCE = 1e-3
+MAX_REFINEMENT = 4.0
 LARGE_SCENE_MONTE_CARLO_RAYS = 64
 
 
@@ -203,20 +211,23 @@ def resolved(settings, extent: float):
                                else settings.patch_size)
 
 
-def with_monte_carlo(settings, patches: int, nodes: int):
+def with_monte_carlo(settings, patches: int, nodes: int, extent: float):
     """``settings`` with the Monte Carlo rays decided for ``patches`` patches and ``nodes``
-    nodes at its tolerance (``auto_monte_carlo_rays``) unless given."""
+    nodes of a scene of bounding-box diagonal ``extent`` (``auto_monte_carlo_rays``) unless given."""
     if settings.monte_carlo_rays is not None:
         return settings
-    return dataclasses.replace(settings, monte_carlo_rays=auto_monte_carlo_rays(patches, nodes, settings.tolerance))
+    refinement = (extent / AUTO_PATCH_DIVISIONS / settings.patch_size) ** 2 if settings.patch_size else 1.0
+    return dataclasses.replace(settings, monte_carlo_rays=auto_monte_carlo_rays(patches, nodes, refinement,
+                                                                                settings.tolerance))
 
 
-def auto_monte_carlo_rays(patches: int, nodes: int, tolerance: float = LINE_TOLERANCE) -> int:
-    """``monte_carlo_rays`` for a discretisation of ``patches`` patches and ``nodes`` nodes shot
-    to ``tolerance``: LARGE_SCENE_MONTE_CARLO_RAYS where a round of shots, patches x (patches +
-    nodes), costs LARGE_SCENE_SHOOTING x max(1, LINE_TOLERANCE / tolerance) form factors or more;
-    else 0 (shoot to the tolerance)."""
-    line = LARGE_SCENE_SHOOTING * max(1.0, LINE_TOLERANCE / tolerance)
+def auto_monte_carlo_rays(patches: int, nodes: int, refinement: float = 1.0, tolerance: float = LINE_TOLERANCE) -> int:
+    """``monte_carlo_rays`` for a discretisation of ``patches`` patches and ``nodes`` nodes,
+    ``refinement`` times as many patches per area as the default patch size makes, shot to
+    ``tolerance``: LARGE_SCENE_MONTE_CARLO_RAYS where a round of shots, patches x (patches +
+    nodes), costs LARGE_SCENE_SHOOTING x max(1, min(MAX_REFINEMENT, refinement), LINE_TOLERANCE /
+    tolerance) form factors or more; else 0 (shoot to the tolerance)."""
+    line = LARGE_SCENE_SHOOTING * max(1.0, min(MAX_REFINEMENT, refinement), LINE_TOLERANCE / tolerance)
     return LARGE_SCENE_MONTE_CARLO_RAYS if patches * (patches + nodes) >= line else 0
 
 

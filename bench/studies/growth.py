@@ -25,7 +25,7 @@ from bench.markdown import MIB, table
 from bench.paths import reports, shown
 from bench.runner import in_fresh_process
 from core import BakeSettings, Scene, bake
-from core.settings import AUTO_PATCH_DIVISIONS, LARGE_SCENE_SHOOTING
+from core.settings import AUTO_PATCH_DIVISIONS, LARGE_SCENE_SHOOTING, MAX_REFINEMENT
 
 STUDY = "growth"
 TARGET_SLOPE = 1.15
@@ -126,8 +126,9 @@ def report(results: dict[str, list[dict]], header: dict, minutes: float, quick: 
         "",
         f"- The scene family: {scenes.DESCRIPTIONS['cornell']}, copied k x k, {SPACING:g} box widths apart.",
         f"- The defaults shoot to the tolerance below {LARGE_SCENE_SHOOTING:,} form factors per round of shots, "
-        "patches x (patches + nodes), and go by Monte Carlo from there on (`core.settings.auto_monte_carlo_rays`): "
-        "the column \"Monte Carlo rays\" says which.",
+        f"patches x (patches + nodes), times up to {MAX_REFINEMENT:g} for patches finer than the scene's extent / "
+        f"{AUTO_PATCH_DIVISIONS} (here every copy has the patches of one box), and go by Monte Carlo from there on "
+        "(`core.settings.auto_monte_carlo_rays`): the column \"Monte Carlo rays\" says which.",
         "- hierarchical: `solver=\"hierarchical\"` at its own defaults (link tolerance "
         f"{BakeSettings().link_tolerance:g}), never chosen automatically: docs/methods.md says where it stands.",
         "",

@@ -88,7 +88,7 @@ def test_cancel_at_any_stage_changes_nothing(addon, room):
     """The operator's modal steps, driven as its timer would: cancel after k slices, on patches
     fine enough that the bake is still running then."""
     settings = bpy.context.scene.radiosity
-    settings.preset, settings.patch_size = "CUSTOM", 0.1
+    settings.preset, settings.patch_size = "CUSTOM", 0.07
     baking = addon.radiosity_addon.baking
     before = {obj.name: attribute_names(obj) for obj in bpy.data.objects if obj.type == "MESH"}
     for slices in (0, 1, 3, 6):
@@ -334,16 +334,18 @@ def discretised_as_baked(addon):
 
 def test_monte_carlo_auto_carries_a_large_scene_after_the_emitters_shoot(addon):
     """Auto turns Monte Carlo on where a round of shots would cost core.settings.LARGE_SCENE_SHOOTING
-    form factors or more, patches x (patches + vertices): a floor of 40 x 40 cells under a glowing
-    panel, at patches of 0.14 (about 13,000 patches and 1,700 vertices), bakes with 64 rays, and the
-    report says so; at the automatic patch size (a few dozen patches) it shoots to the tolerance."""
+    form factors or more, patches x (patches + vertices), times up to MAX_REFINEMENT for patches
+    finer than the default: a floor of 40 x 40 cells under a glowing panel, at patches of 0.07 (about
+    29,000 patches and 1,700 vertices), bakes with 64 rays, and the report says so; at the automatic
+    patch size (a few dozen patches) it shoots to the tolerance."""
     grid_object("Floor", cells=40, material=diffuse_material("Floor", (0.6, 0.5, 0.4)))
     grid_object("Panel", 1.0, 2, location=(0, 0, 1.0), material=emission_material("Glow", (1, 0.9, 0.8), 5.0),
                 facing_down=True)
     settings = bpy.context.scene.radiosity
-    settings.preset, settings.patch_size = "CUSTOM", 0.14
+    settings.preset, settings.patch_size = "CUSTOM", 0.07
     mesh = discretised_as_baked(addon)
-    assert mesh.patch_count * (mesh.patch_count + mesh.node_count) >= addon.core.settings.LARGE_SCENE_SHOOTING
+    line = addon.core.settings.MAX_REFINEMENT * addon.core.settings.LARGE_SCENE_SHOOTING
+    assert mesh.patch_count * (mesh.patch_count + mesh.node_count) >= line
     assert bake_in_background() == {"FINISHED"}
     assert "then Monte Carlo (64 rays per vertex)" in settings.last_report, settings.last_report
     settings.patch_size = 0.0

@@ -9,8 +9,8 @@ import math
 import pytest
 
 from core.cli import parser
-from core.settings import (KNOBS, LARGE_SCENE_MONTE_CARLO_RAYS, LARGE_SCENE_SHOOTING, LINE_TOLERANCE, BakeSettings,
-                           given_knobs, knob_table, resolved, with_monte_carlo)
+from core.settings import (KNOBS, LARGE_SCENE_MONTE_CARLO_RAYS, LARGE_SCENE_SHOOTING, LINE_TOLERANCE, MAX_REFINEMENT,
+                           BakeSettings, given_knobs, knob_table, resolved, with_monte_carlo)
 
 
 def test_bake_settings_has_the_knobs_in_order_with_their_defaults():
@@ -68,20 +68,27 @@ def test_resolved_decides_the_automatic_knobs():
     assert resolved(BakeSettings(patch_size=0.5), 8.0).patch_size == 0.5
     # Monte Carlo from LARGE_SCENE_SHOOTING form factors per round of shots, P (P + N), on
     patches = 1_000
-    nodes = -(-LARGE_SCENE_SHOOTING // patches) - patches
-    assert with_monte_carlo(settings, patches, nodes - 1).monte_carlo_rays == 0
-    assert with_monte_carlo(settings, patches, nodes).monte_carlo_rays == LARGE_SCENE_MONTE_CARLO_RAYS
-    assert with_monte_carlo(BakeSettings(monte_carlo_rays=16), patches, nodes).monte_carlo_rays == 16
-    assert with_monte_carlo(BakeSettings(monte_carlo_rays=0), 10**5, 10**5).monte_carlo_rays == 0
-    # a tighter tolerance than LINE_TOLERANCE moves the line up with it (the Reference preset's 1e-4: ten
-    # times as far); a looser one leaves it
-    tight = resolved(BakeSettings(tolerance=LINE_TOLERANCE / 10), extent=8.0)
-    nodes = -(-10 * LARGE_SCENE_SHOOTING // patches) - patches
-    assert with_monte_carlo(tight, patches, nodes - 1).monte_carlo_rays == 0
-    assert with_monte_carlo(tight, patches, nodes).monte_carlo_rays == LARGE_SCENE_MONTE_CARLO_RAYS
-    loose = resolved(BakeSettings(tolerance=LINE_TOLERANCE * 10), extent=8.0)
-    nodes = -(-LARGE_SCENE_SHOOTING // patches) - patches
-    assert with_monte_carlo(loose, patches, nodes).monte_carlo_rays == LARGE_SCENE_MONTE_CARLO_RAYS
+
+    def line_at(settings, line: float) -> bool:
+        """Whether ``settings`` on a scene of extent 8 shoot just below ``line`` and go by Monte Carlo at it."""
+        nodes = -(-int(line) // patches) - patches
+        return (with_monte_carlo(settings, patches, nodes - 1, 8.0).monte_carlo_rays == 0
+                and with_monte_carlo(settings, patches, nodes, 8.0).monte_carlo_rays == LARGE_SCENE_MONTE_CARLO_RAYS)
+
+    assert line_at(settings, LARGE_SCENE_SHOOTING)
+    assert with_monte_carlo(BakeSettings(monte_carlo_rays=16), patches, 10**5, 8.0).monte_carlo_rays == 16
+    assert with_monte_carlo(BakeSettings(monte_carlo_rays=0), 10**5, 10**5, 8.0).monte_carlo_rays == 0
+    # finer patches than the default move the line up with the square of their refinement, up to
+    # MAX_REFINEMENT times; coarser ones leave it
+    assert line_at(resolved(BakeSettings(patch_size=1 / 1.5), 8.0), 1.5**2 * LARGE_SCENE_SHOOTING)
+    assert line_at(resolved(BakeSettings(patch_size=0.1), 8.0), MAX_REFINEMENT * LARGE_SCENE_SHOOTING)
+    assert line_at(resolved(BakeSettings(patch_size=2.0), 8.0), LARGE_SCENE_SHOOTING)
+    # a tighter tolerance than LINE_TOLERANCE moves it up with it (the Reference preset's 1e-4: ten times as
+    # far), whichever is more; a looser one leaves it
+    assert line_at(resolved(BakeSettings(tolerance=LINE_TOLERANCE / 10), 8.0), 10 * LARGE_SCENE_SHOOTING)
+    assert line_at(resolved(BakeSettings(tolerance=LINE_TOLERANCE / 10, patch_size=0.5), 8.0),
+                   10 * LARGE_SCENE_SHOOTING)
+    assert line_at(resolved(BakeSettings(tolerance=LINE_TOLERANCE * 10), 8.0), LARGE_SCENE_SHOOTING)
 
 
 def test_the_command_line_offers_every_exposed_knob_by_its_name():
