@@ -488,7 +488,7 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
             limit = (reach if level == 0 else deep_reach)[np.maximum(patch, 0)]
             close = np.flatnonzero((patch >= 0) & (distance < limit))
             bounce, origins, patch, landed = _bounce(surfaces, emitters, lights, landed[close], patch[close],
-                                                     followers[level], rng, start + level * len(points),
+                                                     followers[level], rng, (stream, first + start, level),
                                                      close // rays if level == 0 else None)
             bounces.append(replace(bounce, near=(close + offset).astype(index_type)))
             offset = 0  # the deeper bounces' are moved on when the blocks are joined
@@ -522,7 +522,7 @@ def _harmonic_mean(distance: np.ndarray, met: np.ndarray, count: int) -> np.ndar
 
 
 def _bounce(surfaces: Surfaces, emitters: Emitters, lights: DirectLighting | None, at: np.ndarray,
-            patches: np.ndarray, rays: int, rng: np.random.Generator, first: int,
+            patches: np.ndarray, rays: int, rng: np.random.Generator, first: tuple[int, int, int],
             groups: np.ndarray | None = None) -> tuple[Bounce, np.ndarray, np.ndarray, np.ndarray]:
     """The ``Bounce`` (its ``near`` left empty) of ``rays`` (a perfect square) stratified
     cosine-distributed rays from each of the points ``at`` (m, 3) on ``patches`` (m,), on the side

@@ -165,11 +165,14 @@ class DirectLighting:
     def has_area_lights(self) -> bool:
         return bool(self._area)
 
-    def light_samples_of_block(self, points: np.ndarray, normals: np.ndarray, first: int) -> np.ndarray:
+    def light_samples_of_block(self, points: np.ndarray, normals: np.ndarray,
+                               first: int | tuple[int, ...]) -> np.ndarray:
         """(m, L, 3) one unbiased estimate of ``light_factors_at`` at each of one block of points
         (of point, spot and sun lights: not area lights), on the calling thread: one shadow ray per
         light and point, a soft light's samples stratified over the points in order (as a patch's
-        points are: ``_sharp``'s ``paired``), drawn from the stream of ``first``."""
+        points are: ``_sharp``'s ``paired``), drawn from the stream of ``first``: the index of the
+        block's first point, or three ints naming a stream of the caller's own (a gather's bounces:
+        ``gather.gather_hits``), which none of this class's meets (those are keys of other lengths)."""
         return self._sharp(points, normals, first, paired=True)[:, : len(self.lights)]
 
     def patch_factors(self, corners: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
@@ -209,7 +212,7 @@ class DirectLighting:
         return sharp.reshape(len(corners), self.rays, *sharp.shape[1:]).mean(axis=1) + self._smooth(
             corners.mean(axis=1), normals, first, sky_rays=PATCH_SKY_RAYS_PER_RAY)[0]
 
-    def _sharp(self, points, normals, first: int, paired: bool = False) -> np.ndarray:
+    def _sharp(self, points, normals, first: int | tuple[int, ...], paired: bool = False) -> np.ndarray:
         """(m, S, 3) point, spot and sun lights at points: one shadow ray each to a point light
         or along a sun, ``rays`` to points of a light's disc or directions of a sun's cone (one
         each when ``paired``: the points are a patch's ``rays`` stratified samples, the i-th
@@ -242,12 +245,13 @@ class DirectLighting:
                 result[lit, index] = (strength[lit] * seen / (4 * math.pi**2))[:, None]
         return result
 
-    def _light_samples(self, chosen: np.ndarray, first: int, light: int, paired: bool) -> np.ndarray:
+    def _light_samples(self, chosen: np.ndarray, first: int | tuple[int, ...], light: int,
+                       paired: bool) -> np.ndarray:
         """(k, s, 2) stratified points of the unit square for the points ``chosen`` (k,) of a
         block: s = ``rays`` strata, each point's rotated at random (Cranley-Patterson); paired, s =
         1, the stratum of each point's place among its patch's ``rays`` samples."""
         grid = _strata(self.rays)
-        rng = np.random.default_rng([self.seed, first, light + 1])
+        rng = np.random.default_rng([self.seed, *np.atleast_1d(first), light + 1])
         if paired:
             rotation = rng.random((int(chosen.max()) // self.rays + 1 if len(chosen) else 0, 2))
             return ((grid[chosen % self.rays] + rotation[chosen // self.rays]) % 1.0)[:, None]

@@ -15,6 +15,7 @@ from core.mesh.discretize import discretize
 from core.solve import gather as final_gather
 from core.solve.gather import REGATHER_FACTOR, REGATHER_MAX_RAYS, _lattice_points, gather, noisy_nodes, regather_rays
 from core.transport.analytic import point_to_triangle
+from core.transport.direct import DirectLighting
 from tests.core.scenes import box, grid, merge, quad, uniform
 from tests.core.test_form_factor_closed_forms import c11
 from tests.core.test_montecarlo import rays_of
@@ -468,3 +469,32 @@ def test_the_rays_from_one_nodes_close_landings_are_one_lattice_each_ray_uniform
                                  (u * v**2, 1 / 6, np.sqrt(1 / 15 - 1 / 36))):
         mean = value.mean(axis=(0, 2))  # per point, over its rays and the draws
         assert np.all(np.abs(mean - exact) <= 4 * spread / np.sqrt(20_000)), mean
+
+
+def test_each_gathers_bounces_draw_a_soft_lights_samples_from_streams_of_their_own(monkeypatch):
+    """The nodes' gather, the gather again and the patches' gather read a soft light (one with a
+    radius) at their close landings from one random stream per block and bounce: no two of
+    them the same, so the light's samples at different points are not the same numbers; and none
+    a stream the nodes' own direct light draws from (a block's index, an int)."""
+    scene = replace(wall_on_a_floor("point"), lights=(PointLight(POINT_POSITION, np.full(3, POINT_POWER), 0.05),))
+    mesh = discretize(scene, 0.25)
+    visibility = rays_of(mesh)
+    lights = DirectLighting(scene.lights, np.zeros(3), visibility, 16, 0)
+    keys = []
+    draw = DirectLighting.light_samples_of_block
+
+    def recorded(self, points, normals, first):
+        keys.append(first)
+        return draw(self, points, normals, first)
+
+    monkeypatch.setattr(DirectLighting, "light_samples_of_block", recorded)
+    monkeypatch.setattr(final_gather, "POINTS_PER_BLOCK", 4)  # several blocks
+    monkeypatch.setattr(final_gather, "RAYS_PER_BLOCK", 64)
+    nodes, facing = mesh.node_points, mesh.node_normals
+    for stream in (final_gather.NODE_STREAM, final_gather.AGAIN_STREAM):
+        final_gather.gather_hits(mesh, visibility, nodes, facing, 16, seed=1, stream=stream, lights=lights)
+    final_gather.gather_hits(mesh, visibility, mesh.patch_centroids, mesh.patch_normals, 4, seed=1,
+                             stream=final_gather.PATCH_STREAM, lights=lights)
+    assert len(keys) > 30
+    assert len(set(keys)) == len(keys)
+    assert all(isinstance(key, tuple) and len(key) == 3 for key in keys)
