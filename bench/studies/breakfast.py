@@ -2,7 +2,10 @@
 against path tracing at random corners: writes docs/results/breakfast.md.
 
 The targets (issue 21): at most 60 s and 4 GiB of peak resident memory, at most 3 % from path
-tracing at 1,000 random corners, a progress call at least every 0.2 s. The bake runs in a fresh
+tracing at 1,000 random corners, a progress call at least every 0.2 s, a cancel honoured within
+0.5 s (the bake cancelled at CANCEL_AT shares of its time, each in a fresh process: from the moment
+the caller decides to stop to the bake's return, the wait for its next progress call included).
+The bake runs in a fresh
 process (its peak is that process's, reading the OBJ included); the answer is path-traced at each
 chosen corner's node (bench/corner_answer.py) in a process of its own, kept in build/ for the
 next run while core/ is unchanged (the tradeoffs study's cache), its noise removed from the error
@@ -23,7 +26,7 @@ from bench.runner import in_fresh_process
 from bench.studies.tradeoffs import cached_answer
 from bench.studies.tradeoffs_plan import PathTraced
 from core import bake
-from core.util.progress import REPORT_INTERVAL
+from core.util.progress import REPORT_INTERVAL, BakeCancelled
 
 STUDY = "breakfast"
 CORNERS, PATHS = 1_000, 40_000  # about 3 % of noise: the room is dark but near its windows
@@ -31,6 +34,8 @@ QUICK_CORNERS, QUICK_PATHS = 100, 500
 TRACING_TIMEOUT = 3 * 3600.0
 TARGET_SECONDS, TARGET_PEAK, TARGET_ERROR = 60.0, 4 << 30, 0.03
 PROMISED_GAP = 0.2  # s: the longest a bake may leave its caller without a progress call
+PROMISED_CANCEL = 0.5  # s: the longest from a cancel to the bake's return
+CANCEL_AT = (0.1, 0.35, 0.6, 0.85)  # shares of the bake's time at which it is cancelled, one bake each
 
 
 def measure_bake() -> dict:
@@ -56,7 +61,30 @@ def measure_bake() -> dict:
             "near_field": stats["near_field"], "corner_colors": result.corner_colors}
 
 
-def report(baked: dict, wall: float, peak: int, answer, header: dict, minutes: float, quick: bool) -> str:
+def measure_cancel(after: float) -> dict:
+    """In a fresh process: the default bake of the breakfast room, cancelled ``after`` seconds
+    into it (its progress callback returns False from then on): how long from that moment until
+    ``bake`` raised BakeCancelled, and the stage it was in."""
+    scene = scenes.load("breakfast")
+    start = time.perf_counter()
+    deadline = start + after
+    stage = {"message": ""}
+
+    def progress(_fraction: float, message: str) -> bool:
+        if time.perf_counter() < deadline:
+            stage["message"] = message
+            return True
+        return False
+
+    try:
+        bake(scene, progress=progress)
+    except BakeCancelled:
+        return {"after": after, "latency": time.perf_counter() - deadline, "stage": stage["message"]}
+    return {"after": after, "latency": None, "stage": "finished before the cancel"}
+
+
+def report(baked: dict, wall: float, peak: int, answer, header: dict, minutes: float, quick: bool,
+           cancels: list[dict]) -> str:
     """The Markdown report."""
     values = baked["corner_colors"][answer.triangles, answer.corners]
     error = without_noise(nrmse(values, answer.radiosity), answer.noise)
@@ -79,6 +107,14 @@ def report(baked: dict, wall: float, peak: int, answer, header: dict, minutes: f
         ["longest wait for a progress call", f"{baked['longest_gap']:.2f} s (ending in '{baked['gap_stage']}')",
          f"<= {PROMISED_GAP:g} s", verdict(baked["longest_gap"] <= PROMISED_GAP)],
     ]
+    heard = [cancel for cancel in cancels if cancel["latency"] is not None]
+    if cancels:
+        slowest = max(heard, key=lambda cancel: cancel["latency"]) if heard else None
+        moments = ", ".join(f"{cancel['after']:.0f}" for cancel in cancels)
+        rows.append([f"longest from a cancel to the bake's return ({len(cancels)} bakes cancelled at {moments} s)",
+                     f"{slowest['latency']:.2f} s (in '{slowest['stage']}')" if slowest else "none heard",
+                     f"<= {PROMISED_CANCEL:g} s",
+                     verdict(len(heard) == len(cancels) and slowest["latency"] <= PROMISED_CANCEL)])
     about = (f"Options: `--corners N` (default {CORNERS:,}), `--paths N` (default {PATHS:,}), `--quick`. "
              f"The bake works on a thread of its own and its caller's thread passes on what it last reported "
              f"every {REPORT_INTERVAL:g} s, also inside one long step (`progress.relayed`).")
@@ -128,8 +164,16 @@ def main(argv: list[str]) -> int:
     print(f"  {outcome.value['seconds']:.1f} s; the answer: {corners} corners x {paths:,} paths ...", flush=True)
     answer = cached_answer(STUDY, scenes.load("breakfast"), PathTraced(corners, paths, TRACING_TIMEOUT),
                            machine.core_digest())
+    cancels = []
+    for share in CANCEL_AT[1:3] if options.quick else CANCEL_AT:
+        print(f"cancelled at {share:.0%} of the bake ...", flush=True)
+        cancelled = in_fresh_process(measure_cancel, share * outcome.value["seconds"])
+        if not cancelled.ok:
+            print(f"error: the cancelled bake {cancelled.status}", file=sys.stderr)
+            return 1
+        cancels.append(cancelled.value)
     header |= machine.closing(header) | {"corners": corners, "paths": paths}
     minutes = (time.perf_counter() - start) / 60
-    text = report(outcome.value, outcome.wall, outcome.peak, answer, header, minutes, options.quick)
+    text = report(outcome.value, outcome.wall, outcome.peak, answer, header, minutes, options.quick, cancels)
     markdown.write(text, reports(options.quick) / f"{STUDY}.md")
     return 0
