@@ -129,9 +129,11 @@ def enclosing(corners: np.ndarray, tolerance: float) -> np.ndarray:
 
 def uniform_points(corners: np.ndarray, uv: np.ndarray) -> np.ndarray:
     """(n, 3) points of triangles ``corners`` (n, 3, 3), uniform in area for uniform ``uv``
-    (n, 2): (1 - sqrt(u)) a + sqrt(u) (1 - v) b + sqrt(u) v c."""
-    root = np.sqrt(uv[:, :1])
-    return (1 - root) * corners[:, 0] + root * (1 - uv[:, 1:]) * corners[:, 1] + root * uv[:, 1:] * corners[:, 2]
+    (n, 2): (1 - sqrt(u)) a + sqrt(u) (1 - v) b + sqrt(u) v c. Leading axes broadcast: corners
+    (k, 1, 3, 3) and uv (k, m, 2) give (k, m, 3), m points of each triangle."""
+    root = np.sqrt(uv[..., :1])
+    return (1 - root) * corners[..., 0, :] + root * (1 - uv[..., 1:]) * corners[..., 1, :] \
+        + root * uv[..., 1:] * corners[..., 2, :]
 
 
 def cosine_directions(normals: np.ndarray, uv: np.ndarray) -> np.ndarray:
