@@ -72,7 +72,7 @@ import numpy as np
 from ..mesh.discretize import Discretization
 from ..rays.visibility import Visibility
 from ..transport.direct import DirectLighting
-from ..util import parallel
+from ..util import parallel, streams
 from ..util.geometry import GOLDEN, cosine_directions, longest_edges, uniform_points
 from ..util.progress import Report, quiet
 from .emitters import Emitters
@@ -118,9 +118,9 @@ REGATHER_MAX_RAYS = 256
 # rays left the breakfast room 0.5 points worse: "The sky through a blind").
 SPARSE_HITS = 32
 PATCH_RAYS = 9
-# The random streams of the gathers (with the seed and the block): at the nodes, at the nodes
-# gathered again, at the patches, and the probes that find crevices (``node_pools``).
-NODE_STREAM, AGAIN_STREAM, PATCH_STREAM, POOL_STREAM = 2, 3, 4, 5
+# The gathers' random streams (``util.streams.GATHER_RAYS`` with the seed and the block): at the
+# nodes, at the nodes gathered again, at the patches.
+NODE_STREAM, AGAIN_STREAM, PATCH_STREAM = 2, 3, 4
 # The nodes of a vertex whose normals differ by at most POOL_ANGLE (degrees) gather together, unless
 # more than POOL_NEAR_SHARE of the POOL_PROBES rays of one of them land nearer than POOL_PARALLAX
 # times the nodes' distance apart: there each node sees its own few millimetres (a crevice), and
@@ -401,7 +401,7 @@ def _ray_points(seed: int, stream: int, index: int, count: int, rays: int) -> tu
     block of ``count`` points' ``rays`` rays (a perfect square), one in each of their congruent
     squares (jittered strata), the first numbers of the block's random stream (``seed``,
     ``stream``, ``index`` of its first point), and that stream, to draw the rest from."""
-    rng = np.random.default_rng([seed, stream, index])
+    rng = streams.generator(seed, streams.GATHER_RAYS, stream, index)
     cells, side = _strata(rays)
     return cells[None] + rng.random((count, rays, 2)) / side, rng
 
@@ -488,7 +488,8 @@ def gather_hits(mesh: Discretization, visibility: Visibility, points: np.ndarray
             limit = (reach if level == 0 else deep_reach)[np.maximum(patch, 0)]
             close = np.flatnonzero((patch >= 0) & (distance < limit))
             bounce, origins, patch, landed = _bounce(surfaces, emitters, lights, landed[close], patch[close],
-                                                     followers[level], rng, (stream, first + start, level),
+                                                     followers[level], rng,
+                                                     (streams.BOUNCES, stream, first + start, level),
                                                      close // rays if level == 0 else None)
             bounces.append(replace(bounce, near=(close + offset).astype(index_type)))
             offset = 0  # the deeper bounces' are moved on when the blocks are joined
@@ -593,7 +594,7 @@ def patch_hits(mesh: Discretization, visibility: Visibility, patches: np.ndarray
     patch), and with ``near`` the bounces from where those landed close, of one ray each
     (``lights`` as for ``gather_hits``): read by ``patch_light``."""
     cells, side = _strata(rays)
-    rng = np.random.default_rng([seed, PATCH_STREAM, 0, 0])  # not a gather block's (three numbers)
+    rng = streams.generator(seed, streams.PATCH_GATHER_POINTS)
     uv = cells[None] + rng.random((len(patches), rays, 2)) / side
     # broadcast, not np.repeat, which holds the GIL while it copies (0.1 s on the breakfast room's
     # 312,000 patches: the bake's caller heard nothing meanwhile)
@@ -657,7 +658,7 @@ def node_pools(mesh: Discretization, visibility: Visibility, seed: int = 0) -> n
         within their ``reach``."""
         chosen = slice(start, start + POINTS_PER_BLOCK)
         points, normals = mesh.node_points[shared[chosen]], mesh.node_normals[shared[chosen]]
-        rng = np.random.default_rng([seed, POOL_STREAM, start])
+        rng = streams.generator(seed, streams.POOL_PROBES, start)
         directions = cosine_directions(normals, cells[None] + rng.random((len(points), POOL_PROBES, 2)) / side)
         origins = np.repeat(points, POOL_PROBES, axis=0)
         lift = np.repeat(normals, POOL_PROBES, axis=0)

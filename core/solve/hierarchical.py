@@ -40,7 +40,7 @@ from ..mesh.refine import radiosity_scale
 from ..transport.arriving import ArrivingLight
 from ..transport.links import (VISIBILITY_RAYS, averaged_coefficients, cluster_coefficients, enclosed, sample_points,
                                seen_share)
-from ..util import parallel
+from ..util import parallel, streams
 from ..util.progress import Report, Stages, effort
 
 # A link carrying less than this share of the threshold is not split for being partly visible.
@@ -244,7 +244,7 @@ class Refiner:
         directions the light comes from (k, 3); the links ``across`` (k,) bool average their
         coefficients over the rays' directions."""
         h, rx, mesh = self.hierarchy, self.receivers, self.light.mesh
-        rng = np.random.default_rng([self.seed, self.rounds, start])
+        rng = streams.generator(self.seed, streams.LINK_RAYS, self.rounds, start)
         ends, end_normals = sample_points(h, mesh.patch_corners, mesh.patch_normals, sources, VISIBILITY_RAYS, rng)
         if self.tree:
             starts, start_normals = sample_points(h, mesh.patch_corners, mesh.patch_normals, receivers,
@@ -375,7 +375,7 @@ class Solver:
         self.leaf_basis = harmonics(mesh.patch_normals[hierarchy.patch]) * SH_CONVOLUTION
         self.levels = hierarchy.by_depth()
         self.closed = bool(enclosed(light.engine.visibility, light.engine.receiving_points[hierarchy.patch],
-                                    mesh.patch_normals[hierarchy.patch], np.random.default_rng([seed, 3])).all())
+                                    mesh.patch_normals[hierarchy.patch], streams.generator(seed, streams.CLOSURE_RAYS)).all())
         self.parts: list[tuple[Links, np.ndarray]] = []
 
     def link(self, links: Links) -> None:

@@ -39,7 +39,7 @@ import numpy as np
 
 from ..mesh.discretize import Discretization
 from ..rays.visibility import MAX_LAYERS, RAY_EPSILON, Visibility
-from ..util import parallel, rows
+from ..util import parallel, rows, streams
 from ..util.geometry import barycentric, cosine_directions, uniform_points
 from ..util.progress import Report, quiet
 from ..util.spatial import ranks, runs
@@ -341,7 +341,7 @@ def trace_paths(mesh: Discretization, visibility: Visibility, unshot: np.ndarray
         particles = 0
     # systematic sampling: patch q leaves floor(c_q + offset) - floor(c_{q-1} + offset) particles
     cumulative = np.cumsum(sampling) * particles
-    offset = np.random.default_rng([seed, 2 * stream]).random()
+    offset = streams.generator(seed, streams.PARTICLE_OFFSET, stream).random()
     counts = np.diff(np.floor(np.concatenate([[0.0], cumulative]) + offset)).astype(np.int64)
     sources = runs(counts).astype(np.int32)  # np.repeat(np.arange(P), counts), without holding the GIL
     # a particle stops at patch j with the chance opacity_j (``Surfaces.hit``) and goes on from it
@@ -353,7 +353,7 @@ def trace_paths(mesh: Discretization, visibility: Visibility, unshot: np.ndarray
     def block(start: int) -> list[tuple[np.ndarray, np.ndarray]]:
         """Per bounce, the patches the block's particles landed on and where each came from (for
         bounce 0 its particle in the block, after it its landing of the bounce before)."""
-        rng = np.random.default_rng([seed, 2 * stream + 1, start])
+        rng = streams.generator(seed, streams.PARTICLE_BLOCK, stream, start)
         patch = sources[start:start + PARTICLES_PER_BLOCK]
         came_from = np.arange(len(patch))
         normal = mesh.patch_normals[patch]

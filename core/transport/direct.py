@@ -36,7 +36,7 @@ import numpy as np
 from ..mesh.discretize import light_divisions
 from ..rays.visibility import RAY_EPSILON, Visibility
 from ..scene.lights import AreaLight, Environment, PointLight, SpotLight, SunLight, source_intensities
-from ..util import parallel
+from ..util import parallel, streams
 from ..util.geometry import areas_and_normals, orthonormal_frames, subdivide, tangent_frames
 from .raycast import RayCaster, stratified_samples
 
@@ -151,36 +151,35 @@ class DirectLighting:
         if self.source_count == 0 or len(points) == 0:
             return np.zeros((len(points), self.source_count, 3)), np.zeros((len(points), self.source_count
                                                                            - len(self.lights), 3))
-        return self._in_blocks(points, normals, self._point_block, report, outputs=2)
+        return self._in_blocks(points, normals, self._point_block, report, streams.NODES, outputs=2)
 
     def light_factors_at(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """(m, L, 3) ``factors_at`` of the L lights alone, without the sky."""
         if not self.lights:
             return np.zeros((len(points), 0, 3))
-        factors = self._in_blocks(points, normals, lambda block, block_normals, first: self._sharp(
-            block, block_normals, first) + self._area_lights(block, block_normals), lambda _fraction: None)
+        factors = self._in_blocks(points, normals, lambda block, block_normals, key: self._sharp(
+            block, block_normals, key) + self._area_lights(block, block_normals), lambda _fraction: None,
+                                  streams.NODES)
         return factors[:, : len(self.lights)]
 
     @property
     def has_area_lights(self) -> bool:
         return bool(self._area)
 
-    def light_samples_of_block(self, points: np.ndarray, normals: np.ndarray,
-                               first: int | tuple[int, ...]) -> np.ndarray:
+    def light_samples_of_block(self, points: np.ndarray, normals: np.ndarray, key: tuple[int, ...]) -> np.ndarray:
         """(m, L, 3) one unbiased estimate of ``light_factors_at`` at each of one block of points
         (of point, spot and sun lights: not area lights), on the calling thread: one shadow ray per
         light and point, a soft light's samples stratified over the points in order (as a patch's
-        points are: ``_sharp``'s ``paired``), drawn from the stream of ``first``: the index of the
-        block's first point, or three ints naming a stream of the caller's own (a gather's bounces:
-        ``gather.gather_hits``), which none of this class's meets (those are keys of other lengths)."""
-        return self._sharp(points, normals, first, paired=True)[:, : len(self.lights)]
+        points are: ``_sharp``'s ``paired``), drawn from the stream of ``key``, the caller's own
+        (``util.streams``: a gather's bounces, ``(BOUNCES, stream, block, bounce)``)."""
+        return self._sharp(points, normals, key, paired=True)[:, : len(self.lights)]
 
     def patch_factors(self, corners: np.ndarray, normals: np.ndarray, report: Callable[[float], None]) -> np.ndarray:
         """(P, S, 3) per source and unit intensity, G over patches (P, 3, 3): the mean over
         ``rays`` stratified points of each patch for point, spot and sun lights (their shadows
         are sharp); at the centroid for area lights and the sky, whose light changes smoothly (the
         sky from PATCH_SKY_RAYS_PER_RAY directions per ray)."""
-        return self._in_blocks(corners, normals, self._patch_block, report)
+        return self._in_blocks(corners, normals, self._patch_block, report, streams.PATCHES)
 
     def combine(self, factors: np.ndarray, intensities: np.ndarray | None = None) -> np.ndarray:
         """(m, 3) sum_s factors[:, s] x intensities[s]: the light of the sources (m, S, 3) at
@@ -188,31 +187,34 @@ class DirectLighting:
         intensities = self.intensities() if intensities is None else intensities
         return np.einsum("msc,sc->mc", factors, intensities) if factors.shape[1] else np.zeros((len(factors), 3))
 
-    def _in_blocks(self, items, normals, block, report, outputs: int = 1):
-        """``block(items, normals, first)`` over blocks of POINTS_PER_BLOCK items, joined: an
-        array (m, S, 3), or a tuple of ``outputs`` arrays (for at least one item)."""
+    def _in_blocks(self, items, normals, block, report, part: int, outputs: int = 1):
+        """``block(items, normals, key)`` over blocks of POINTS_PER_BLOCK items, joined: an array
+        (m, S, 3), or a tuple of ``outputs`` arrays (for at least one item); ``key`` (``part``, the
+        index of the block's first item) names the block's random streams (``util.streams``)."""
         if self.source_count == 0 or len(items) == 0:
             return np.zeros((len(items), self.source_count, 3))
         starts = range(0, len(items), POINTS_PER_BLOCK)
         parts = []
         for done, part in enumerate(parallel.map_ordered(
-                lambda s: block(items[s: s + POINTS_PER_BLOCK], normals[s: s + POINTS_PER_BLOCK], s), starts), 1):
+                lambda s: block(items[s: s + POINTS_PER_BLOCK], normals[s: s + POINTS_PER_BLOCK], (part, s)),
+                starts), 1):
             parts.append(part if outputs > 1 else (part,))
             report(done / len(starts))
         joined = tuple(np.concatenate(pieces) for pieces in zip(*parts))
         return joined if outputs > 1 else joined[0]
 
-    def _point_block(self, points, normals, first) -> tuple[np.ndarray, np.ndarray]:
-        smooth, noise = self._smooth(points, normals, first, outlined=True)
-        return self._sharp(points, normals, first) + smooth, noise[:, len(self.lights):]
+    def _point_block(self, points, normals, key) -> tuple[np.ndarray, np.ndarray]:
+        smooth, noise = self._smooth(points, normals, key, outlined=True)
+        return self._sharp(points, normals, key) + smooth, noise[:, len(self.lights):]
 
-    def _patch_block(self, corners, normals, first) -> np.ndarray:
-        samples = stratified_samples(corners, self.rays, self.seed + first)  # (k, S, 3)
-        sharp = self._sharp(samples.reshape(-1, 3), np.repeat(normals, self.rays, axis=0), first, paired=True)
+    def _patch_block(self, corners, normals, key) -> np.ndarray:
+        rotation = streams.generator(self.seed, streams.PATCH_LIGHT_POINTS, *key).random((len(corners), 1, 2))
+        samples = stratified_samples(corners, self.rays, rotation)  # (k, S, 3)
+        sharp = self._sharp(samples.reshape(-1, 3), np.repeat(normals, self.rays, axis=0), key, paired=True)
         return sharp.reshape(len(corners), self.rays, *sharp.shape[1:]).mean(axis=1) + self._smooth(
-            corners.mean(axis=1), normals, first, sky_rays=PATCH_SKY_RAYS_PER_RAY)[0]
+            corners.mean(axis=1), normals, key, sky_rays=PATCH_SKY_RAYS_PER_RAY)[0]
 
-    def _sharp(self, points, normals, first: int | tuple[int, ...], paired: bool = False) -> np.ndarray:
+    def _sharp(self, points, normals, key: tuple[int, ...], paired: bool = False) -> np.ndarray:
         """(m, S, 3) point, spot and sun lights at points: one shadow ray each to a point light
         or along a sun, ``rays`` to points of a light's disc or directions of a sun's cone (one
         each when ``paired``: the points are a patch's ``rays`` stratified samples, the i-th
@@ -223,7 +225,7 @@ class DirectLighting:
                 cosine = -(normals @ light.direction)
                 lit = np.flatnonzero(cosine > 0)
                 if light.angle > 0:
-                    samples = self._light_samples(lit, first, index, paired)
+                    samples = self._light_samples(lit, key, index, paired)
                     seen = self._seen_in_cone(points[lit], normals[lit], -light.direction, light.angle / 2, samples)
                 else:
                     towards = np.broadcast_to(-light.direction, (len(lit), 3))
@@ -238,20 +240,19 @@ class DirectLighting:
                     strength *= light.cone_mask(-towards)
                 lit = np.flatnonzero(strength > 0)
                 if light.radius > 0:
-                    samples = self._light_samples(lit, first, index, paired)
+                    samples = self._light_samples(lit, key, index, paired)
                     seen = self._seen_on_disc(points[lit], normals[lit], light.position, light.radius, samples)
                 else:
                     seen = self._unblocked(points[lit], normals[lit], offset[lit][:, None], 1.0, jittered=False)[:, 0]
                 result[lit, index] = (strength[lit] * seen / (4 * math.pi**2))[:, None]
         return result
 
-    def _light_samples(self, chosen: np.ndarray, first: int | tuple[int, ...], light: int,
-                       paired: bool) -> np.ndarray:
+    def _light_samples(self, chosen: np.ndarray, key: tuple[int, ...], light: int, paired: bool) -> np.ndarray:
         """(k, s, 2) stratified points of the unit square for the points ``chosen`` (k,) of a
         block: s = ``rays`` strata, each point's rotated at random (Cranley-Patterson); paired, s =
         1, the stratum of each point's place among its patch's ``rays`` samples."""
         grid = _strata(self.rays)
-        rng = np.random.default_rng([self.seed, *np.atleast_1d(first), light + 1])
+        rng = streams.generator(self.seed, streams.LIGHT_SAMPLES, *key, light)
         if paired:
             rotation = rng.random((int(chosen.max()) // self.rays + 1 if len(chosen) else 0, 2))
             return ((grid[chosen % self.rays] + rotation[chosen // self.rays]) % 1.0)[:, None]
@@ -278,16 +279,17 @@ class DirectLighting:
                       + (sin_theta * np.sin(phi))[..., None] * bitangent[0])  # (k, s, 3)
         return self._unblocked(points, normals, directions, None, jittered=False).mean(axis=1)
 
-    def _smooth(self, points, normals, first, outlined: bool = False,
+    def _smooth(self, points, normals, key: tuple[int, ...], outlined: bool = False,
                 sky_rays: int = SKY_RAYS_PER_RAY) -> tuple[np.ndarray, np.ndarray]:
-        """(m, S, 3) area lights and the sky (from ``rays`` x ``sky_rays`` directions); ``outlined``,
+        """(m, S, 3) area lights and the sky (from ``rays`` x ``sky_rays`` directions, the stream of
+        the block's ``key``: ``_in_blocks``); ``outlined``,
         where a point sees the sky along its neighbours' open directions (``_sky_next_door``), the
         mean of OUTLINE_LOOKS looks along its outline (``_looked``); and (m, S, 3) the standard
         error of that mean, from the looks' spread (zero elsewhere)."""
         result = self._area_lights(points, normals)
         noise = np.zeros_like(result)
         if self.sky.any() or self.environment is not None:
-            rotation = self._rotation(first, len(points))
+            rotation = self._rotation(key, len(points))
             directions, open_sky = self._open_sky(points, normals, rotation, sky_rays)
             sky = np.zeros_like(result)
             each = self._each_direction(directions, open_sky)
@@ -297,7 +299,7 @@ class DirectLighting:
                 if len(looking):
                     outline = _outline((open_sky[looking] > 0) | next_door)
                     looks = np.stack([self._looked(points[looking], normals[looking], rotation[looking], outline,
-                                                   self._generator(first, look))
+                                                   self._generator(key, look))
                                       for look in range(1, OUTLINE_LOOKS + 1)])
                     columns = slice(len(self.lights), self.source_count)
                     sky[looking, columns] = looks.mean(axis=0)
@@ -406,16 +408,15 @@ class DirectLighting:
                                         _frames(normals))
         return directions, self._unblocked(points, normals, directions, None, jittered=True)
 
-    def _rotation(self, first: int, count: int) -> np.ndarray:
+    def _rotation(self, key: tuple[int, ...], count: int) -> np.ndarray:
         """(count, 2) the rotations of the sky's strata (``_open_sky``) at the points of the block
-        from ``first``."""
-        return self._generator(first, 0).random((count, 2))
+        of ``key``."""
+        return self._generator(key, 0).random((count, 2))
 
-    def _generator(self, first: int, look: int) -> np.random.Generator:
-        """The random numbers of the sky's directions at the points of the block from ``first``,
-        for their ``look`` (0: the first directions)."""
-        stream = [self.seed, first, 0, look] if look else [self.seed, first]  # not a light's (``_light_samples``)
-        return np.random.default_rng(stream)
+    def _generator(self, key: tuple[int, ...], look: int) -> np.random.Generator:
+        """The random numbers of the sky's directions at the points of the block of ``key``, for
+        their ``look`` (0: the first directions)."""
+        return streams.generator(self.seed, streams.SKY_DIRECTIONS, *key, look)
 
     def _unblocked(self, points, normals, offsets, reach, *, jittered: bool) -> np.ndarray:
         """(m, s) what gets through along each of the s rays from each point (m, 3) along

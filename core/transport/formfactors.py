@@ -12,7 +12,7 @@ from ..mesh.discretize import Discretization, discretize
 from ..rays.visibility import Visibility
 from ..scene import Scene
 from ..settings import METHODS
-from ..util import parallel, spatial
+from ..util import parallel, spatial, streams
 from ..util.geometry import longest_edges
 from ..util.progress import Report, heartbeat, quiet
 from . import hemicube, raycast, reach, receivers
@@ -184,7 +184,7 @@ class FormFactorEngine:
     def _mean_rotations(self) -> np.ndarray:
         """(P, 1, 2) the Cranley-Patterson rotation of each patch's points where it receives a
         shot as a mean (``_near_patch_means``): its own, whichever patches are so read."""
-        return np.random.default_rng(self._ray_settings[1] + 3).random((self.mesh.patch_count, 1, 2))
+        return streams.generator(self._ray_settings[1], streams.MEAN_POINTS).random((self.mesh.patch_count, 1, 2))
 
     @cached_property
     def _shot_receivers(self) -> tuple[np.ndarray, np.ndarray]:
@@ -402,7 +402,7 @@ class FormFactorEngine:
         near = np.flatnonzero((apart * MEAN_REACH < longest_edges(mesh.patch_corners[patches]))
                               & (self.receiving_points[patches] == centroids).all(axis=1))
         rotation = self._mean_rotations[patches[near]]
-        points = raycast.stratified_samples(mesh.patch_corners[patches[near]], MEAN_POINTS, 0, rotation).reshape(-1, 3)
+        points = raycast.stratified_samples(mesh.patch_corners[patches[near]], MEAN_POINTS, rotation).reshape(-1, 3)
         normals = np.repeat(mesh.patch_normals[patches[near]], MEAN_POINTS, axis=0)
         to = np.repeat(sources[near], MEAN_POINTS)
         # point k of a patch takes the directions k, k + MEAN_POINTS, ... of one rank-1 lattice

@@ -25,6 +25,7 @@ import functools
 import numpy as np
 
 from ..rays.visibility import RAY_EPSILON, Visibility
+from ..util import streams
 from ..util.geometry import GOLDEN, barycentric_grid, longest_edges, solid_angle_directions
 from .analytic import point_to_triangle
 
@@ -61,18 +62,15 @@ def check_ray_count(count: int) -> int:
     return divisions
 
 
-def stratified_samples(patch_corners: np.ndarray, count: int, seed: int,
-                       rotation: np.ndarray | None = None) -> np.ndarray:
+def stratified_samples(patch_corners: np.ndarray, count: int, rotation: np.ndarray) -> np.ndarray:
     """(P, count, 3) points on each patch, one in each of ``count`` (a perfect square) congruent
-    strata, shifted by a Cranley-Patterson ``rotation`` (P, 1, 2) in [0, 1) (default: drawn from
-    ``seed``); a uniform point in a triangle is (1 - sqrt(u), sqrt(u) (1 - v), sqrt(u) v). The
-    result has the dtype of ``patch_corners``."""
+    strata, shifted by a Cranley-Patterson ``rotation`` (P, 1, 2) in [0, 1); a uniform point in a
+    triangle is (1 - sqrt(u), sqrt(u) (1 - v), sqrt(u) v). The result has the dtype of
+    ``patch_corners``."""
     grid, cells = barycentric_grid(check_ray_count(count))
     strata = grid[cells]  # (count, 3 corners, 3 barycentric)
     base = lattice(count)
     dtype = patch_corners.dtype
-    if rotation is None:
-        rotation = np.random.default_rng(seed).random((len(patch_corners), 1, 2))
     rotation = rotation.astype(dtype)
     uv = (base.astype(dtype) + rotation) % 1.0
     root = np.sqrt(uv[..., 0])
@@ -118,7 +116,9 @@ class RayCaster:
         self.visibility = visibility
         self.rays = rays
         unit_corners = (patch_corners - visibility.center) * visibility.scale
-        self._unit_samples = stratified_samples(unit_corners, rays, seed).astype(np.float32)
+        self._unit_samples = stratified_samples(unit_corners, rays, _rotations(seed, streams.SHOT_SAMPLES,
+                                                                                len(unit_corners)))
+        self._unit_samples = self._unit_samples.astype(np.float32)
         self._unit_normals = patch_normals.astype(np.float32)
         # disc term A / (pi S) of the weight, in the unit space of the visibility module
         self._unit_disc = (patch_areas * visibility.scale**2 / (np.pi * rays)).astype(np.float32)
@@ -129,11 +129,12 @@ class RayCaster:
         self._close, self._fine = CLOSE_RAYS > rays, EMITTER_RAYS > rays
         self._close_reach2 = (CLOSE_REACH * longest_edges(patch_corners)) ** 2
         close, fine = emitting & self._close, emitting & self._fine  # (none where their rays are not more)
-        shifts = np.random.default_rng(seed + 1).random((np.count_nonzero(close), 1, 2))
+        shifts = _rotations(seed, streams.CLOSE_DIRECTIONS, np.count_nonzero(close))
         # (E, CLOSE_RAYS or CLOSE_PATCH_RAYS, 2) per source, for ``solid_angle_directions``
         self._close_uv, self._close_patch_uv = ((lattice(count)[None] + shifts) % 1.0
                                                 for count in (CLOSE_RAYS, CLOSE_PATCH_RAYS))
-        self._fine_samples = stratified_samples(unit_corners[fine], EMITTER_RAYS, seed + 2).astype(np.float32)
+        self._fine_samples = stratified_samples(unit_corners[fine], EMITTER_RAYS, _rotations(
+            seed, streams.EMITTER_SAMPLES, np.count_nonzero(fine))).astype(np.float32)
         self._fine_disc = (patch_areas[fine] * visibility.scale**2 / (np.pi * EMITTER_RAYS)).astype(np.float32)
         self._unit_probes = np.ascontiguousarray(self._unit_samples[:, self._probe])  # (P, probes, 3)
         # sources with another face in their plane over them (``contacts.coplanar_overlaps``)
@@ -336,6 +337,12 @@ class RayCaster:
             <= 2 * RAY_EPSILON
         blocked[candidates[turned_away & in_plane]] = False
         return blocked
+
+
+def _rotations(seed: int, tag: int, count: int) -> np.ndarray:
+    """(count, 1, 2) Cranley-Patterson rotations of ``count`` patches' strata from the stream
+    ``tag`` (``util.streams``)."""
+    return streams.generator(seed, tag).random((count, 1, 2))
 
 
 def _weighted_share(offset, normal, cos_source, blocked, disc) -> np.ndarray:

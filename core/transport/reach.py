@@ -51,7 +51,7 @@ def reach_boxes(corners: np.ndarray, normals: np.ndarray, names: np.ndarray, vis
     side = int(round(np.sqrt(rays)))
     lattice = (np.stack(np.meshgrid(np.arange(side), np.arange(side)), axis=-1).reshape(-1, 2) + 0.5) / side
     shift = (np.asarray(names, dtype=np.float64)[:, None] * _IRRATIONALS + seed * GOLDEN) % 1.0  # (k, 4)
-    origins = stratified_samples(corners, rays, seed, rotation=shift[:, None, :2]).reshape(-1, 3)
+    origins = stratified_samples(corners, rays, shift[:, None, :2]).reshape(-1, 3)
     # point i goes along direction stratum (PAIRING i + offset) mod rays: another one for each point
     pairing = (PAIRING * np.arange(rays) + (shift[:, :1] * rays).astype(np.int64)) % rays  # (k, rays)
     uv = (lattice[pairing] + shift[:, None, 2:]) % 1.0

@@ -11,7 +11,10 @@ came to keep their constant (nearfield.PRESSED_ANGLE: the tall block's back faci
 at most 1.2e-4 (against Cycles' converged answer, `python -m bench rescore`: 0.60 -> 0.58 %), and
 when a node's near patches came to be those within one longest edge of their centroid, not 1.25
 (nearfield.NEAR_REACH), at most 9.7e-5 (against a path-traced answer at the box's 768 corners:
-0.91 -> 0.88 %; docs/notes/experiments.md). On a machine of the same kind the colours must be
+0.91 -> 0.88 %; docs/notes/experiments.md), and when the core's random streams became one per use
+(core/util/streams.py: the shots' samples drawn from other numbers), at most 1.2e-4 (against
+Cycles' converged answer, `python -m bench rescore`: 0.54 -> 0.55 %), written on an AMD EPYC where
+the ones before were written on an Intel Xeon. On a machine of the same kind the colours must be
 equal bit for bit. Elsewhere NumPy's SIMD kernels and the BLAS may round differently: turning off
 AVX-512 and forcing OpenBLAS's Haswell kernels moved the colours by at most 1e-10 of their largest,
 so other machines are held to 1e-6 of it, far below what any change of the method moves (another

@@ -20,6 +20,7 @@ from core.rays.visibility import Visibility
 from core.transport.analytic import point_to_triangle
 from core.transport.direct import DirectLighting
 from core.util.geometry import cosine_directions
+from core.util.streams import NODES
 from core.scene.lights import AreaLight, PointLight, SpotLight, SunLight, area_light
 from tests.core.scenes import box, merge, quad
 from tests.core.test_form_factor_closed_forms import b3_anywhere, b12
@@ -330,7 +331,8 @@ def test_in_a_block_of_few_points_the_choice_to_look_again_stays_unbiased():
     normals = np.tile([0.0, 0.0, 1.0], (len(points), 1))
     factor = sum(point_to_triangle(points, normals, np.repeat(triangle[None], len(points), axis=0))
                  for triangle in hole)
-    readings = np.array([DirectLighting((), scene.sky, visibility, 16, seed)._smooth(points, normals, 0, outlined=True)
+    readings = np.array([DirectLighting((), scene.sky, visibility, 16, seed)._smooth(points, normals, (NODES, 0),
+                                                                                   outlined=True)
                          [0][:, 0, 0] for seed in range(2000)])
     standard_error = readings.std(axis=0) / np.sqrt(len(readings))
     assert np.all(4 * standard_error < 0.15 * factor)

@@ -1,0 +1,38 @@
+"""The random streams of a bake: one per use, so that no two uses draw the same numbers.
+
+A stream is ``np.random.default_rng([seed, *indices, tag])``: the bake's seed, the indices that
+tell one block (or round, or look) of a use from another, and last the use's own nonzero ``tag``.
+NumPy's ``SeedSequence`` takes lists that differ only by trailing zeros as one ([s, 4], [s, 4, 0]
+and [s, 4, 0, 0] draw the same numbers), so a key that could end in an index could meet another
+use's; ending in a nonzero tag of its own, two keys of different uses differ in their last place
+(or, of different lengths, where the longer has its tag and the shorter nothing), and two of one
+use differ where their indices do (docs/notes/experiments.md, "Random streams that coincide").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# One tag per use; never reuse one, and never 0.
+PARTICLE_OFFSET = 1  # the systematic sampling of the particles' sources (montecarlo.trace_paths)
+PARTICLE_BLOCK = 2  # a block of particles: where they start, where they go
+GATHER_RAYS = 3  # a block of a final gather's rays (gather._ray_points), per gather stream
+PATCH_GATHER_POINTS = 4  # the points of the patches that gather their own light (gather.patch_hits)
+POOL_PROBES = 5  # the probes that find crevices between a vertex's nodes (gather.node_pools)
+SKY_DIRECTIONS = 6  # the sky's directions at a block of points, per look (transport.direct)
+LIGHT_SAMPLES = 7  # a soft light's samples at a block of points (transport.direct)
+PATCH_LIGHT_POINTS = 8  # the stratified points where a block of patches reads the lights
+SHOT_SAMPLES = 9  # the stratified samples of each patch a shot's rays aim at (transport.raycast)
+CLOSE_DIRECTIONS = 10  # the directions into close emitters' solid angles (transport.raycast)
+EMITTER_SAMPLES = 11  # the samples of emitters read finely (transport.raycast)
+MEAN_POINTS = 12  # the points of patches whose light near a lamp is a mean (transport.formfactors)
+LINK_RAYS = 13  # a block of the hierarchical links' visibility rays, per round (solve.hierarchical)
+CLOSURE_RAYS = 14  # the hierarchical solver's test of a closed scene (solve.hierarchical)
+
+# The parts of a bake that read lights and sky, an index of the keys above.
+NODES, PATCHES, BOUNCES = 1, 2, 3
+
+
+def generator(seed: int, tag: int, *indices: int) -> np.random.Generator:
+    """The stream of use ``tag`` at ``indices`` for the bake's ``seed``."""
+    return np.random.default_rng([seed, *indices, tag])
