@@ -187,16 +187,16 @@ class DirectLighting:
         intensities = self.intensities() if intensities is None else intensities
         return np.einsum("msc,sc->mc", factors, intensities) if factors.shape[1] else np.zeros((len(factors), 3))
 
-    def _in_blocks(self, items, normals, block, report, part: int, outputs: int = 1):
+    def _in_blocks(self, items, normals, block, report, kind: int, outputs: int = 1):
         """``block(items, normals, key)`` over blocks of POINTS_PER_BLOCK items, joined: an array
-        (m, S, 3), or a tuple of ``outputs`` arrays (for at least one item); ``key`` (``part``, the
+        (m, S, 3), or a tuple of ``outputs`` arrays (for at least one item); ``key`` (``kind``, the
         index of the block's first item) names the block's random streams (``util.streams``)."""
         if self.source_count == 0 or len(items) == 0:
             return np.zeros((len(items), self.source_count, 3))
         starts = range(0, len(items), POINTS_PER_BLOCK)
         parts = []
         for done, part in enumerate(parallel.map_ordered(
-                lambda s: block(items[s: s + POINTS_PER_BLOCK], normals[s: s + POINTS_PER_BLOCK], (part, s)),
+                lambda s: block(items[s: s + POINTS_PER_BLOCK], normals[s: s + POINTS_PER_BLOCK], (kind, s)),
                 starts), 1):
             parts.append(part if outputs > 1 else (part,))
             report(done / len(starts))

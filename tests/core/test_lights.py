@@ -18,11 +18,12 @@ import pytest
 from core import Scene, bake
 from core.rays.visibility import Visibility
 from core.transport.analytic import point_to_triangle
+from core.transport import direct
 from core.transport.direct import DirectLighting
 from core.util.geometry import cosine_directions
 from core.util.streams import NODES
 from core.scene.lights import AreaLight, PointLight, SpotLight, SunLight, area_light
-from tests.core.scenes import box, merge, quad
+from tests.core.scenes import box, grid, merge, quad
 from tests.core.test_form_factor_closed_forms import b3_anywhere, b12
 
 RHO = 0.5
@@ -403,3 +404,18 @@ def test_the_sky_through_a_blind_is_read_without_beating_against_its_slats():
     standard_error = np.sqrt(variance) / count
     assert abs((readings - truth).mean()) < 4 * standard_error, ((readings - truth).mean(), standard_error)
     assert spread < 0.05, spread
+
+
+def test_a_floor_open_to_a_uniform_sky_receives_all_of_it_in_every_block(monkeypatch):
+    """A floor under a uniform sky and nothing else: the sky's factor is 1 at every patch and at
+    every point, however the work is split into blocks (each block's own random streams,
+    ``util.streams``): 64 patches and points in blocks of 4."""
+    monkeypatch.setattr(direct, "POINTS_PER_BLOCK", 4)
+    floor = grid([0, 0, 0], [1, 0, 0], [0, 1, 0], 4)
+    corners = floor[0][floor[1]]
+    normals = np.tile([0.0, 0.0, 1.0], (len(corners), 1))
+    lighting = DirectLighting((), np.ones(3), Visibility(corners), 16, 0)
+    patches = lighting.patch_factors(corners, normals, lambda _done: None)
+    points = lighting.factors_at(corners.mean(axis=1) + [0, 0, 0.5], normals, lambda _done: None)
+    for factors in (patches, points):
+        np.testing.assert_allclose(factors[:, 0], 1.0, rtol=0, atol=1e-12)
