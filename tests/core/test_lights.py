@@ -409,7 +409,7 @@ def test_the_sky_through_a_blind_is_read_without_beating_against_its_slats():
 def test_a_floor_open_to_a_uniform_sky_receives_all_of_it_in_every_block(monkeypatch):
     """A floor under a uniform sky and nothing else: the sky's factor is 1 at every patch and at
     every point, however the work is split into blocks (each block's own random streams,
-    ``util.streams``): 64 patches and points in blocks of 4."""
+    ``util.streams``): 32 patches and 32 points, in 8 blocks of 4 each."""
     monkeypatch.setattr(direct, "POINTS_PER_BLOCK", 4)
     floor = grid([0, 0, 0], [1, 0, 0], [0, 1, 0], 4)
     corners = floor[0][floor[1]]
