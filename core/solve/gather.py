@@ -523,12 +523,12 @@ def _harmonic_mean(distance: np.ndarray, met: np.ndarray, count: int) -> np.ndar
 
 
 def _bounce(surfaces: Surfaces, emitters: Emitters, lights: DirectLighting | None, at: np.ndarray,
-            patches: np.ndarray, rays: int, rng: np.random.Generator, first: tuple[int, int, int],
+            patches: np.ndarray, rays: int, rng: np.random.Generator, light_key: tuple[int, ...],
             groups: np.ndarray | None = None) -> tuple[Bounce, np.ndarray, np.ndarray, np.ndarray]:
     """The ``Bounce`` (its ``near`` left empty) of ``rays`` (a perfect square) stratified
     cosine-distributed rays from each of the points ``at`` (m, 3) on ``patches`` (m,), on the side
     that faces back along the ray that landed there; and the rays' origins (m k, 3), the patch each
-    stopped at (m k,: -1 none, -2 out of the scene) and where (m k, 3). ``first``: the lights'
+    stopped at (m k,: -1 none, -2 out of the scene) and where (m k, 3). ``light_key``: the lights'
     random stream (``DirectLighting.light_samples_of_block``). ``groups`` (m,) sorted labels: the
     rays of the points of one are drawn together (``_lattice_points``; None: each point's in its
     own strata)."""
@@ -547,7 +547,7 @@ def _bounce(surfaces: Surfaces, emitters: Emitters, lights: DirectLighting | Non
     light_count = 0 if lights is None else len(lights.lights)
     factors = np.zeros((len(at), light_count), np.float32)
     if len(at) and light_count:
-        factors = lights.light_samples_of_block(at, facing, first)[:, :, 0].astype(np.float32)
+        factors = lights.light_samples_of_block(at, facing, light_key)[:, :, 0].astype(np.float32)
     bounce = Bounce(np.zeros(0, np.int64), met.astype(np.int32).reshape(len(at), rays),
                     share.astype(np.float32).reshape(len(at), rays), lamp.astype(np.int32),
                     lamp_weight.astype(np.float32), factors)
