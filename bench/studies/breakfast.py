@@ -5,11 +5,10 @@ The targets (issue 21): at most 60 s and 4 GiB of peak resident memory, at most 
 tracing at 1,000 random corners, a progress call at least every 0.2 s, a cancel honoured within
 0.5 s (the bake cancelled at CANCEL_AT shares of its time, each in a fresh process: from the moment
 the caller decides to stop to the bake's return, the wait for its next progress call included).
-The bake runs in a fresh
-process (its peak is that process's, reading the OBJ included); the answer is path-traced at each
-chosen corner's node (bench/corner_answer.py) in a process of its own, kept in build/ for the
-next run while core/ is unchanged (the tradeoffs study's cache), its noise removed from the error
-in quadrature. Times are one run's on a shared machine.
+The bake runs in a fresh process (its peak is that process's, reading the OBJ included); the
+answer is path-traced at each chosen corner's node (bench/corner_answer.py) in a process of its
+own, kept in build/ for the next run while core/ is unchanged (the tradeoffs study's cache), its
+noise removed from the error in quadrature. Times are one run's on a shared machine.
 """
 
 from __future__ import annotations

@@ -281,11 +281,11 @@ class DirectLighting:
 
     def _smooth(self, points, normals, key: tuple[int, ...], outlined: bool = False,
                 sky_rays: int = SKY_RAYS_PER_RAY) -> tuple[np.ndarray, np.ndarray]:
-        """(m, S, 3) area lights and the sky (from ``rays`` x ``sky_rays`` directions, the stream of
-        the block's ``key``: ``_in_blocks``); ``outlined``,
-        where a point sees the sky along its neighbours' open directions (``_sky_next_door``), the
-        mean of OUTLINE_LOOKS looks along its outline (``_looked``); and (m, S, 3) the standard
-        error of that mean, from the looks' spread (zero elsewhere)."""
+        """(m, S, 3) area lights and the sky (from ``rays`` x ``sky_rays`` directions, drawn from the
+        streams of the block's ``key``: ``_in_blocks``); ``outlined``, where a point sees the sky
+        along its neighbours' open directions (``_sky_next_door``), the mean of OUTLINE_LOOKS looks
+        along its outline (``_looked``); and (m, S, 3) the standard error of that mean, from the
+        looks' spread (zero elsewhere)."""
         result = self._area_lights(points, normals)
         noise = np.zeros_like(result)
         if self.sky.any() or self.environment is not None:
