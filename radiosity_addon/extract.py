@@ -3,8 +3,8 @@ back (object, loop) and a note for everything approximated or skipped.
 
 ``depsgraph`` is the one a render evaluates (``rendered.read_as_rendered``), so what it holds is
 what renders. Taken: mesh objects (modifiers applied, instances included, world space),
-their materials (``materials``), point, spot, sun and area lights, and the world's background
-colour x strength as sky light.
+their materials (``materials``), point, spot, sun and area lights (not portals, which give no
+light), and the world's background colour x strength as sky light.
 """
 
 from __future__ import annotations
@@ -19,6 +19,9 @@ from ..core import Scene
 from ..core.scene.lights import Environment, PointLight, SpotLight, SunLight, area_light
 from ..core.scene.textures import face_means, image_triangle_means
 from .materials import MAX_REFLECTANCE, Surface, default_surface, image_pixels, material_surface
+
+# Cycles' Max Bounces of a light, whose default (and highest) value sets no limit.
+MAX_LIGHT_BOUNCES = 1024
 
 
 @dataclass
@@ -190,6 +193,9 @@ def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True,
 
 def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, instancer: str | None) -> None:
     """One evaluated mesh into ``builder``: ``instancer`` names the object that instanced it, if any."""
+    if not getattr(obj, "visible_diffuse", True):
+        builder.notes.append(f"object '{obj.original.name}': invisible to diffuse rays in Cycles, which this bake "
+                             "does not follow: it reflects, emits and shades as any surface")
     materials = [slot.material for slot in obj.material_slots] or [None]
     ids = np.array([builder.surface(material) for material in materials])
     mesh = obj.to_mesh()
@@ -293,25 +299,43 @@ def _triangle_colours(builder: _Builder, mesh, object_name: str, surface_map, lo
 
 
 def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
+    """The light of ``obj`` as Cycles renders it (``BlenderSync::sync_light``): a portal, which
+    only guides Cycles' sampling of the world, gives no light, nor does a light invisible to
+    diffuse rays (Cycles leaves diffuse surfaces out of its light: ``light_object_visibility_flags``);
+    Cast Shadow off casts none."""
     light = obj.data
     power = np.array(light.color[:3]) * light.energy * 2.0 ** getattr(light, "exposure", 0.0)
     position, axis = matrix[:3, 3], -matrix[:3, 2]
     name = obj.original.name
+    cycles = getattr(light, "cycles", None)
+    if light.type == "AREA" and getattr(cycles, "is_portal", False):
+        builder.notes.append(f"light '{name}': a portal, which guides Cycles' sampling of the world and gives no "
+                             "light of its own, skipped")
+        return
+    if not getattr(obj, "visible_diffuse", True):
+        builder.notes.append(f"light '{name}': invisible to diffuse rays (Visibility > Ray Visibility), so it "
+                             "lights no diffuse surface in Cycles, skipped")
+        return
     if getattr(light, "use_nodes", False):
         builder.notes.append(f"light '{name}': its node setup is ignored (colour x power used)")
     if getattr(light, "use_temperature", False):
         builder.notes.append(f"light '{name}': its blackbody temperature is ignored (colour x power used)")
+    if getattr(cycles, "max_bounces", MAX_LIGHT_BOUNCES) < MAX_LIGHT_BOUNCES:
+        builder.notes.append(f"light '{name}': its Max Bounces ({cycles.max_bounces}) is ignored (its light "
+                             "bounces as all light does)")
+    shadows = bool(getattr(light, "use_shadow", True))
     if light.type == "POINT":
-        builder.lights.append(PointLight(position, power, light.shadow_soft_size))
+        builder.lights.append(PointLight(position, power, light.shadow_soft_size, shadows))
     elif light.type == "SPOT":
-        builder.lights.append(SpotLight(position, axis, power, light.spot_size, light.spot_blend, light.shadow_soft_size))
+        builder.lights.append(SpotLight(position, axis, power, light.spot_size, light.spot_blend, light.shadow_soft_size,
+                                        shadows))
     elif light.type == "SUN":
-        builder.lights.append(SunLight(axis, power, light.angle))
+        builder.lights.append(SunLight(axis, power, light.angle, shadows))
     elif light.type == "AREA":
         if getattr(light, "spread", np.pi) < np.pi - 1e-6:
             builder.notes.append(f"light '{name}': spread {np.degrees(light.spread):.0f} deg treated as 180 deg")
         builder.lights.append(area_light(light.shape, light.size, light.size_y, matrix, power,
-                                         getattr(light, "normalize", True)))
+                                         getattr(light, "normalize", True), shadows))
     added = len(builder.lights) - len(builder.light_groups)  # one, or none for a kind not baked
     builder.light_groups += [getattr(obj.original, "lightgroup", "")] * added
 
@@ -319,8 +343,12 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
 def _world_light(world, builder: _Builder) -> tuple[np.ndarray, Environment | None]:
     """The world's light: (3,) background colour x strength as uniform sky light, or an
     Environment where an Environment Texture (equirectangular, through a Mapping's rotation or
-    none) feeds the background colour."""
+    none) feeds the background colour; none where the world is invisible to diffuse rays."""
     notes = builder.notes
+    if not getattr(getattr(world, "cycles_visibility", None), "diffuse", True):
+        notes.append(f"world '{world.name}': invisible to diffuse rays (Ray Visibility), so it lights no diffuse "
+                     "surface in Cycles, skipped")
+        return np.zeros(3), None
     tree = world.node_tree if getattr(world, "use_nodes", True) else None
     output = tree.get_output_node("CYCLES") if tree is not None else None
     if output is None or not output.inputs["Surface"].is_linked:

@@ -41,7 +41,7 @@ def geometry_change(first: Scene, now: Scene) -> str | None:
         if type(was) is not type(light) or any(
                 not _same(getattr(was, field.name), getattr(light, field.name))
                 for field in dataclasses.fields(was) if field.name not in INTENSITY_FIELDS):
-            return f"light {index} moved or changed its shape"
+            return f"light {index} moved, changed its shape or its shadows"
     if now.sky.any() and not first.sky.any():
         return "the sky was black"
     if environment_scale(first, now) is None:

@@ -1,7 +1,9 @@
 """Lights that are not surfaces (point, spot, sun, area), in Blender's units and with Cycles'
 conventions (measured with Blender 5.0.1, ../shared/CYCLES.md); they light the surfaces but are
 not surfaces themselves: they neither block nor reflect light. What each gives at a point is
-``transport.direct``'s.
+``transport.direct``'s. Each has ``casts_shadow`` (Blender's Cast Shadow, ``Light.use_shadow``):
+without it, its light reaches every point that faces it, through whatever lies between, as
+Cycles renders such a light (no shadow rays).
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ class PointLight:
     position: np.ndarray
     power: np.ndarray
     radius: float = 0.0
+    casts_shadow: bool = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "position", _vector("position", self.position))
@@ -66,6 +69,7 @@ class SpotLight:
     spot_size: float
     spot_blend: float = 0.15
     radius: float = 0.0
+    casts_shadow: bool = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "position", _vector("position", self.position))
@@ -97,6 +101,7 @@ class SunLight:
     direction: np.ndarray
     strength: np.ndarray
     angle: float = 0.0
+    casts_shadow: bool = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "direction", _direction("direction", self.direction))
@@ -113,6 +118,7 @@ class AreaLight:
 
     triangles: np.ndarray
     power: np.ndarray
+    casts_shadow: bool = True
 
     def __post_init__(self) -> None:
         triangles = np.array(self.triangles, dtype=np.float64)
@@ -138,7 +144,8 @@ ELLIPSE_SEGMENTS = 32
 AREA_SHAPES = ("SQUARE", "RECTANGLE", "DISK", "ELLIPSE")
 
 
-def area_light(shape: str, size: float, size_y: float, matrix: np.ndarray, power, normalize: bool = True) -> AreaLight:
+def area_light(shape: str, size: float, size_y: float, matrix: np.ndarray, power, normalize: bool = True,
+               casts_shadow: bool = True) -> AreaLight:
     """The AreaLight of a Blender area light: ``shape`` one of AREA_SHAPES, ``size`` (and
     ``size_y`` for RECTANGLE and ELLIPSE) its widths in its local XY plane, shining down its
     local -Z axis; ``matrix`` (4, 4) local to world (scale included). Without ``normalize``
@@ -166,7 +173,7 @@ def area_light(shape: str, size: float, size_y: float, matrix: np.ndarray, power
         triangles = triangles[:, ::-1]
     if not normalize:
         power = np.asarray(power, dtype=np.float64) * areas_and_normals(triangles)[0].sum()
-    return AreaLight(triangles, power)
+    return AreaLight(triangles, power, casts_shadow)
 
 
 LIGHT_TYPES = (PointLight, SpotLight, SunLight, AreaLight)

@@ -38,6 +38,7 @@ from ..rays.visibility import RAY_EPSILON, Visibility
 from ..scene.lights import AreaLight, Environment, PointLight, SpotLight, SunLight, source_intensities
 from ..util import parallel, streams
 from ..util.geometry import areas_and_normals, orthonormal_frames, subdivide, tangent_frames
+from .analytic import point_to_triangle
 from .raycast import RayCaster, stratified_samples
 
 # Evaluation points per block of work (each with up to a few thousand rays).
@@ -218,13 +219,15 @@ class DirectLighting:
         """(m, S, 3) point, spot and sun lights at points: one shadow ray each to a point light
         or along a sun, ``rays`` to points of a light's disc or directions of a sun's cone (one
         each when ``paired``: the points are a patch's ``rays`` stratified samples, the i-th
-        paired with the i-th stratum of the light)."""
+        paired with the i-th stratum of the light); none from a light that casts no shadow."""
         result = np.zeros((len(points), self.source_count, 3))
         for index, light in enumerate(self.lights):
             if isinstance(light, SunLight):
                 cosine = -(normals @ light.direction)
                 lit = np.flatnonzero(cosine > 0)
-                if light.angle > 0:
+                if not light.casts_shadow:
+                    seen = 1.0
+                elif light.angle > 0:
                     samples = self._light_samples(lit, key, index, paired)
                     seen = self._seen_in_cone(points[lit], normals[lit], -light.direction, light.angle / 2, samples)
                 else:
@@ -239,7 +242,9 @@ class DirectLighting:
                 if isinstance(light, SpotLight):
                     strength *= light.cone_mask(-towards)
                 lit = np.flatnonzero(strength > 0)
-                if light.radius > 0:
+                if not light.casts_shadow:
+                    seen = 1.0
+                elif light.radius > 0:
                     samples = self._light_samples(lit, key, index, paired)
                     seen = self._seen_on_disc(points[lit], normals[lit], light.position, light.radius, samples)
                 else:
@@ -382,13 +387,17 @@ class DirectLighting:
 
     def _area_lights(self, points, normals) -> np.ndarray:
         """(m, S, 3) area lights at points, per unit of power: kernel-weighted shadow rays to
-        stratified samples, times 1 / (pi A)."""
+        stratified samples (the exact unoccluded form factors for a light that casts no shadow),
+        times 1 / (pi A)."""
         result = np.zeros((len(points), self.source_count, 3))
         count = len(points)
         for index, pieces, caster in self._area:
             sources = len(pieces)
-            factors = caster.form_factors(points, normals, np.repeat(np.arange(count), sources),
-                                          np.tile(np.arange(sources), count))
+            receivers, pieces_of = np.repeat(np.arange(count), sources), np.tile(np.arange(sources), count)
+            if self.lights[index].casts_shadow:
+                factors = caster.form_factors(points, normals, receivers, pieces_of)
+            else:
+                factors = point_to_triangle(points[receivers], normals[receivers], pieces[pieces_of])
             area = areas_and_normals(self.lights[index].triangles)[0].sum()
             result[:, index] = (factors.reshape(count, sources).sum(axis=1) / (math.pi * area))[:, None]
         return result

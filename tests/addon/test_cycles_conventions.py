@@ -8,6 +8,9 @@ through the operator, against Cycles' conventions (shared/CYCLES.md, measured wi
     sun, strength E                        rho E cos / pi
     area, power P, area A                  rho P / (pi A) F(point -> light)
     world colour C, strength k             rho C k on an open upward plane
+    an area light marked Portal            no light
+    a light or world invisible to diffuse  no light
+    Cast Shadow off                        the light's own formula under a roof
 
 The floor cannot see itself, so it shows direct light only and the formulas are exact. Colours
 are evaluated NODE_INSET = 4e-5 of the scene's extent into each vertex's faces; on these scenes of a
@@ -151,3 +154,46 @@ def test_the_sun_angle_softens_its_shadow():
     np.testing.assert_allclose(colours[edge, :3], 0.5 * 0.5 * 2.0 / np.pi, rtol=0.02)
     outside = positions[:, 0] > 0.5
     np.testing.assert_allclose(colours[outside, :3], 0.5 * 2.0 / np.pi, rtol=1e-3)
+
+
+def test_a_portal_gives_no_light_of_its_own(floor):
+    """An area light marked Portal only guides Cycles' sampling of the world: the floor reads the
+    world alone, as without it."""
+    world_colour((0.2, 0.4, 0.8), 1.5)
+    portal = light_object("Portal", "AREA", (0.0, 0.0, 1.0), 100.0, size=2.0)
+    portal.data.cycles.is_portal = True
+    _, colours = baked(floor)
+    np.testing.assert_allclose(colours, np.tile(RHO * np.array([0.2, 0.4, 0.8]) * 1.5, (len(colours), 1)), rtol=EXACT)
+
+
+@pytest.mark.parametrize("kind", ["SUN", "AREA"])
+def test_a_light_with_cast_shadow_off_lights_through_a_roof(kind):
+    """Cast Shadow off (``Light.use_shadow``): Cycles traces no shadow ray for the light, so a
+    floor under a roof reads what the open floor does (the roof reflecting nothing)."""
+    grey = diffuse_material("Grey", (0.5, 0.5, 0.5))
+    floor = grid_object("Floor", 2.0, 2, material=grey)
+    roof = grid_object("Roof", 4.0, 1, location=(0.0, 0.0, 1.0), material=grey, facing_down=True)
+    roof.radiosity.reflects = False
+    if kind == "SUN":
+        light_object("Light", "SUN", (0, 0, 5), 2.0, use_shadow=False)
+        expected = np.full(3, 0.5 * 2.0 / math.pi)
+    else:
+        light_object("Light", "AREA", (0.0, 0.0, 2.0), 30.0, size=1.0, use_shadow=False)
+    assert bpy.ops.radiosity.bake() == {"FINISHED"}
+    points, colours = corner_colours(floor)
+    if kind == "AREA":
+        radiance = 30.0 / math.pi
+        expected = (0.5 * radiance * np.array([b3_anywhere(x, y, -0.5, 0.5, -0.5, 0.5, 2.0) for x, y, _ in points]))[:, None]
+    np.testing.assert_allclose(colours[:, :3], np.broadcast_to(expected, colours[:, :3].shape), rtol=RTOL)
+
+
+def test_a_light_or_world_invisible_to_diffuse_rays_lights_no_diffuse_surface(floor):
+    """Ray Visibility > Diffuse off: Cycles leaves diffuse surfaces out of that light
+    (``light_object_visibility_flags``, the background's SHADER_EXCLUDE_DIFFUSE); the floor reads
+    the sun that stays visible alone."""
+    world_colour((0.2, 0.4, 0.8), 1.5)
+    bpy.context.scene.world.cycles_visibility.diffuse = False
+    light_object("Hidden", "POINT", (0.0, 0.0, 1.0), 1000.0).visible_diffuse = False
+    light_object("Sun", "SUN", (0, 0, 5), 2.0)
+    _, colours = baked(floor)
+    np.testing.assert_allclose(colours, np.tile(RHO * 2.0 / math.pi, (len(colours), 1)), rtol=EXACT)

@@ -10,6 +10,7 @@ vertex towards its faces' centre: on these grids that moves a node by under 1e-3
 values at the vertex are matched to 2e-3 relative unless stated.
 """
 
+import dataclasses
 import math
 
 import numpy as np
@@ -23,7 +24,7 @@ from core.transport.direct import DirectLighting
 from core.util.geometry import cosine_directions
 from core.util.streams import NODES
 from core.scene.lights import AreaLight, PointLight, SpotLight, SunLight, area_light
-from tests.core.scenes import box, grid, merge, quad
+from tests.core.scenes import box, merge, quad
 from tests.core.test_form_factor_closed_forms import b3_anywhere, b12
 
 RHO = 0.5
@@ -114,6 +115,50 @@ def test_sun_lights_by_its_cosine_and_casts_a_sharp_shadow():
     assert in_shadow.sum() >= 4 and lit.sum() > 50
     np.testing.assert_allclose(colours[lit], RHO * 3.0 * cosine / math.pi, rtol=1e-12)
     assert np.all(colours[in_shadow] == 0)
+
+
+def _area_light_above(height: float) -> AreaLight:
+    matrix = np.eye(4)
+    matrix[:3, 3] = [0.1, 0.0, height]
+    return area_light("SQUARE", 0.6, 0.0, matrix, [20.0] * 3)
+
+
+SHADOWLESS_LIGHTS = {
+    "point": lambda shadows: PointLight([0.1, 0.0, 1.5], [60.0] * 3, casts_shadow=shadows),
+    "soft point": lambda shadows: PointLight([0.1, 0.0, 1.5], [60.0] * 3, radius=0.2, casts_shadow=shadows),
+    "spot": lambda shadows: SpotLight([0.1, 0.0, 1.5], [0, 0, -1], [60.0] * 3, math.radians(120),
+                                      casts_shadow=shadows),
+    "sun": lambda shadows: SunLight([0.1, 0.0, -1.0], [3.0] * 3, math.radians(5), casts_shadow=shadows),
+    "area": lambda shadows: dataclasses.replace(_area_light_above(1.5), casts_shadow=shadows),
+}
+
+
+@pytest.mark.parametrize("kind", SHADOWLESS_LIGHTS)
+def test_a_light_that_casts_no_shadow_lights_through_a_plate_as_if_it_were_not_there(kind):
+    """Blender's Cast Shadow off: Cycles casts no shadow ray for the light. Under a black plate
+    the floor then reads what the bare floor reads under the same light (its closed form:
+    tests above), and with shadows the plate's shadow is black."""
+    floor = grid([-2, -2, 0], [4, 0, 0], [0, 4, 0], 8)
+    plate = quad([-0.5, -0.5, 0.5], [0, 1, 0], [1, 0, 0])  # 1 m square at z = 0.5, facing down
+    vertices, triangles = merge(floor, plate)
+    reflectance = np.full((len(triangles), 3), RHO)
+    reflectance[-2:] = 0.0  # the plate reflects nothing: the floor shows direct light only
+
+    def floor_colours(shadows: bool, with_plate: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        count = len(triangles) if with_plate else len(triangles) - 2
+        scene = Scene(vertices if with_plate else floor[0], triangles[:count], reflectance[:count],
+                      np.zeros((count, 3)), lights=[SHADOWLESS_LIGHTS[kind](shadows)])
+        return vertex_values(scene, bake(scene, tolerance=1e-6).corner_colors, len(floor[1]))
+
+    points, bare = floor_colours(True, with_plate=False)
+    _, through = floor_colours(False)
+    _, shaded = floor_colours(True)
+    # the plate raises the scene's bounds, which set the nodes' inset and the rays' float32 space:
+    # the same points to within a few 1e-7 of their values (and of the brightest, at a spot's rim)
+    np.testing.assert_allclose(through, bare, rtol=1e-5, atol=1e-6 * bare.max())
+    under = np.linalg.norm(points[:, :2] - [0.1, 0.0], axis=1) < 0.2
+    assert under.sum() >= 1 and np.all(bare[under] > 0.01)
+    assert np.all(shaded[under] == 0)
 
 
 @pytest.mark.parametrize("shape", ["SQUARE", "RECTANGLE"])
