@@ -196,6 +196,7 @@ def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, instancer: str | None)
     if not getattr(obj, "visible_diffuse", True):
         builder.notes.append(f"object '{obj.original.name}': invisible to diffuse rays in Cycles, which this bake "
                              "does not follow: it reflects, emits and shades as any surface")
+    _note_light_linking(builder, obj, f"object '{obj.original.name}'")
     materials = [slot.material for slot in obj.material_slots] or [None]
     ids = np.array([builder.surface(material) for material in materials])
     mesh = obj.to_mesh()
@@ -320,6 +321,7 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
         builder.notes.append(f"light '{name}': its node setup is ignored (colour x power used)")
     if getattr(light, "use_temperature", False):
         builder.notes.append(f"light '{name}': its blackbody temperature is ignored (colour x power used)")
+    _note_light_linking(builder, obj, f"light '{name}'")
     if getattr(cycles, "max_bounces", MAX_LIGHT_BOUNCES) < MAX_LIGHT_BOUNCES:
         builder.notes.append(f"light '{name}': its Max Bounces ({cycles.max_bounces}) is ignored (its light "
                              "bounces as all light does)")
@@ -338,6 +340,15 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
                                          getattr(light, "normalize", True), shadows))
     added = len(builder.lights) - len(builder.light_groups)  # one, or none for a kind not baked
     builder.light_groups += [getattr(obj.original, "lightgroup", "")] * added
+
+
+def _note_light_linking(builder: _Builder, obj, what: str) -> None:
+    """A note where ``obj`` (a light or an emitting mesh) links its light to some receivers or
+    blockers (Object > Shading > Light Linking), which this bake does not follow."""
+    linking = getattr(obj, "light_linking", None)
+    if linking is not None and (linking.receiver_collection is not None or linking.blocker_collection is not None):
+        builder.notes.append(f"{what}: its light linking is not followed (it lights every surface, and every "
+                             "surface shades it)")
 
 
 def _world_light(world, builder: _Builder) -> tuple[np.ndarray, Environment | None]:

@@ -197,3 +197,16 @@ def test_a_light_or_world_invisible_to_diffuse_rays_lights_no_diffuse_surface(fl
     light_object("Sun", "SUN", (0, 0, 5), 2.0)
     _, colours = baked(floor)
     np.testing.assert_allclose(colours, np.tile(RHO * 2.0 / math.pi, (len(colours), 1)), rtol=EXACT)
+
+
+def test_what_the_bake_does_not_follow_is_named_in_the_report(addon, floor):
+    """Light linking, a light's Max Bounces and a mesh hidden from diffuse rays change a Cycles
+    render in ways this bake does not model: each is named in a note, not silently dropped."""
+    lamp = light_object("Lamp", "POINT", (0.0, 0.0, 1.0), 100.0)
+    lamp.light_linking.receiver_collection = bpy.data.collections.new("Lit")
+    lamp.data.cycles.max_bounces = 2
+    floor.visible_diffuse = False
+    notes = addon.radiosity_addon.baking.prepare(bpy.context.scene).extraction.notes
+    for phrase in ("light 'Lamp': its light linking is not followed", "light 'Lamp': its Max Bounces (2)",
+                   "object 'Floor': invisible to diffuse rays in Cycles"):
+        assert any(note.startswith(phrase) for note in notes), (phrase, notes)
