@@ -303,7 +303,7 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
     """The light of ``obj`` as Cycles renders it (``BlenderSync::sync_light``): a portal, which
     only guides Cycles' sampling of the world, gives no light, nor does a light invisible to
     diffuse rays (Cycles leaves diffuse surfaces out of its light: ``light_object_visibility_flags``);
-    Cast Shadow off casts none."""
+    Cast Shadow off casts none; Soft Falloff dims a point or spot light near it."""
     light = obj.data
     power = np.array(light.color[:3]) * light.energy * 2.0 ** getattr(light, "exposure", 0.0)
     position, axis = matrix[:3, 3], -matrix[:3, 2]
@@ -326,11 +326,12 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
         builder.notes.append(f"light '{name}': its Max Bounces ({cycles.max_bounces}) is ignored (its light "
                              "bounces as all light does)")
     shadows = bool(getattr(light, "use_shadow", True))
+    soft = bool(getattr(light, "use_soft_falloff", False))  # Blender 4.0+, on by default
     if light.type == "POINT":
-        builder.lights.append(PointLight(position, power, light.shadow_soft_size, shadows))
+        builder.lights.append(PointLight(position, power, light.shadow_soft_size, shadows, soft))
     elif light.type == "SPOT":
         builder.lights.append(SpotLight(position, axis, power, light.spot_size, light.spot_blend, light.shadow_soft_size,
-                                        shadows))
+                                        shadows, soft))
     elif light.type == "SUN":
         builder.lights.append(SunLight(axis, power, light.angle, shadows))
     elif light.type == "AREA":

@@ -45,12 +45,15 @@ def _check_size(name: str, value: float) -> None:
 class PointLight:
     """position (3,) world space; power (3,) W per channel (Blender: power x colour); radius
     (Blender's Radius): a sphere of that radius, which lights as its centre does but casts soft
-    shadows."""
+    shadows; with ``soft_falloff`` (Blender's Soft Falloff, on by default there) Cycles lights by
+    a disc of that radius facing each point instead, dimmer near the light: its irradiance is the
+    centre's times d^2 / (d^2 + radius^2) at distance d."""
 
     position: np.ndarray
     power: np.ndarray
     radius: float = 0.0
     casts_shadow: bool = True
+    soft_falloff: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "position", _vector("position", self.position))
@@ -61,7 +64,8 @@ class PointLight:
 @dataclass(frozen=True, eq=False)
 class SpotLight:
     """A point light shining into a cone: direction (3,) its axis; spot_size the cone's full
-    angle in radians, (0, pi]; spot_blend in [0, 1] the soft share of the edge."""
+    angle in radians, (0, pi]; spot_blend in [0, 1] the soft share of the edge; radius and
+    soft_falloff as a PointLight's."""
 
     position: np.ndarray
     direction: np.ndarray
@@ -70,6 +74,7 @@ class SpotLight:
     spot_blend: float = 0.15
     radius: float = 0.0
     casts_shadow: bool = True
+    soft_falloff: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "position", _vector("position", self.position))

@@ -6,6 +6,7 @@ G = H / pi, so that a diffuse surface of reflectance rho shows rho * G (and the 
 output is G itself):
 
     point, power P (W, per channel), at distance r, angle theta:  G = P cos(theta) / (4 pi^2 r^2)
+          (with Soft Falloff and a radius R: P cos(theta) / (4 pi^2 (r^2 + R^2)))
     spot: the same times Cycles' cone mask smoothstep((cos a - cos(s/2)) / ((1 - cos(s/2)) b))
           for the angle a off the axis, spot size s and blend b
     sun, strength E (W/m^2):                                    G = E cos(theta) / pi
@@ -21,9 +22,13 @@ kept per unit of it (``factors_at``, ``patch_factors``), so a re-solve after a l
 its colour or strength combines them again without tracing a ray (``combine``).
 Lights do not block or reflect light (they are not geometry), as in Cycles. A point or spot
 light of radius r lights as its centre does (the irradiance of a uniformly bright sphere is that
-of a point of the same power) and is seen from a point as the disc of radius r facing it: its
-visibility is the share of ``rays`` stratified points of that disc seen; a sun of angular
-diameter a likewise, over ``rays`` directions uniform in the cone of half-angle a / 2.
+of a point of the same power), or with Soft Falloff, as Cycles lights it then, as a disc of
+radius r facing the point, whose radiance P / (4 pi^2 r^2) fills a cone of sin^2 = r^2 / (d^2 +
+r^2) (``point.h``; checked against a Cycles render, tests/addon/test_cycles_conventions.py); both
+exact while the light is above the point's horizon. Either is seen from a point as the disc of
+radius r facing it: its visibility is the share of ``rays`` stratified points of that disc seen;
+a sun of angular diameter a likewise, over ``rays`` directions uniform in the cone of half-angle
+a / 2.
 """
 
 from __future__ import annotations
@@ -238,7 +243,8 @@ class DirectLighting:
                 offset = light.position - points
                 distance = np.linalg.norm(offset, axis=1)
                 towards = offset / np.maximum(distance, np.finfo(float).tiny)[:, None]
-                strength = np.maximum((normals * towards).sum(axis=1), 0.0) / (distance * distance)
+                spread = distance * distance + (light.radius ** 2 if light.soft_falloff else 0.0)
+                strength = np.maximum((normals * towards).sum(axis=1), 0.0) / spread
                 if isinstance(light, SpotLight):
                     strength *= light.cone_mask(-towards)
                 lit = np.flatnonzero(strength > 0)

@@ -4,6 +4,8 @@ through the operator, against Cycles' conventions (shared/CYCLES.md, measured wi
 
     emission colour c, strength S          S c
     point, power P                         rho P cos / (4 pi^2 r^2)
+    point of radius R, Soft Falloff        rho P cos / (4 pi^2 (r^2 + R^2))  (a Cycles render:
+                                           0.998 to 1.0005 at R = 0.4 m, 0.5 m up)
     spot                                   the same inside the cone (times Cycles' blend)
     sun, strength E                        rho E cos / pi
     area, power P, area A                  rho P / (pi A) F(point -> light)
@@ -69,6 +71,23 @@ def test_point_light(floor):
     offset = np.array(lamp.location) - points
     r2 = (offset**2).sum(axis=1)
     expected = RHO * 100.0 * np.array(lamp.data.color) * (offset[:, 2] / np.sqrt(r2) / (4 * math.pi**2 * r2))[:, None]
+    np.testing.assert_allclose(colours, expected, rtol=RTOL)
+
+
+@pytest.mark.parametrize("soft_falloff", [True, False])
+def test_a_point_light_of_a_radius_with_and_without_soft_falloff(floor, soft_falloff):
+    """Soft Falloff (Blender 4.0+, on by default): Cycles lights by a disc of the light's radius
+    facing each point, dimmer near the light; off, by a sphere, as its centre. Measured by a
+    Cycles render of this floor (Standard view, EXR) at R = 0.4 m, 0.5 m up: each formula within
+    0.2 %, the other 35 % off under the light."""
+    radius, height = 0.4, 0.5
+    lamp = light_object("Lamp", "POINT", (0.0, 0.0, height), 100.0, shadow_soft_size=radius,
+                        use_soft_falloff=soft_falloff)
+    points, colours = baked(floor)
+    offset = np.array(lamp.location) - points
+    r2 = (offset**2).sum(axis=1)
+    spread = r2 + (radius**2 if soft_falloff else 0.0)
+    expected = RHO * 100.0 * (offset[:, 2] / np.sqrt(r2) / (4 * math.pi**2 * spread))[:, None]
     np.testing.assert_allclose(colours, expected, rtol=RTOL)
 
 

@@ -64,6 +64,24 @@ def test_point_light_matches_cycles_inverse_square_law():
     np.testing.assert_allclose(colours, expected, rtol=NODE_RTOL)
 
 
+@pytest.mark.parametrize("soft_falloff", [False, True])
+def test_a_point_light_of_a_radius_lights_as_a_sphere_or_with_soft_falloff_as_a_facing_disc(soft_falloff):
+    """A sphere of radius R lights as its centre does; Cycles' Soft Falloff lights by a disc of
+    radius R facing the point, of the sphere's radiance P / (4 pi^2 R^2), whose cone of sin^2 =
+    R^2 / (d^2 + R^2) gives P cos / (4 pi^2 (d^2 + R^2)) (both while above the horizon: the
+    floor's points are at least 60 degrees under the light, 0.3 m from it, R = 0.25)."""
+    radius, height = 0.25, 0.3
+    light = PointLight([0.0, 0.0, height], [100.0, 50.0, 20.0], radius=radius, soft_falloff=soft_falloff)
+    scene = floor_scene(lights=[light], size=1.0)
+    points, colours = vertex_values(scene, bake(scene).corner_colors)
+    offset = light.position - points
+    d2 = (offset**2).sum(axis=1)
+    cosine = offset[:, 2] / np.sqrt(d2)
+    spread = d2 + (radius**2 if soft_falloff else 0.0)
+    expected = RHO * light.power * (cosine / (4 * math.pi**2 * spread))[:, None]
+    np.testing.assert_allclose(colours, expected, rtol=NODE_RTOL)
+
+
 def test_lighting_only_is_irradiance_over_pi_even_on_black_surfaces():
     light = PointLight([0.0, 0.0, 1.0], [40.0, 40.0, 40.0])
     scene = floor_scene(reflectance=0.0, lights=[light])
