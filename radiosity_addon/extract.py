@@ -3,8 +3,9 @@ back (object, loop) and a note for everything approximated or skipped.
 
 ``depsgraph`` is the one a render evaluates (``rendered.read_as_rendered``), so what it holds is
 what renders. Taken: mesh objects (modifiers applied, instances included, world space),
-their materials (``materials``), point, spot, sun and area lights (not portals, which give no
-light), and the world's background colour x strength as sky light.
+their materials (``materials``), point, spot, sun and area lights (not portals, nor lights
+invisible to diffuse rays, which light no diffuse surface in Cycles), and the world's background
+colour x strength as sky light (unless it is invisible to diffuse rays).
 """
 
 from __future__ import annotations
@@ -186,9 +187,11 @@ def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True,
         corner_normals=np.concatenate(builder.corner_normals) if shading_normals else None,
         opacity=opacity,
     )
+    lights_diffuse = world is not None and getattr(getattr(world, "cycles_visibility", None), "diffuse", True)
     groups = LightGroups(builder.light_groups, np.concatenate(builder.triangle_groups),
-                         getattr(world, "lightgroup", "") if world is not None else "")
-    return Extraction(scene, builder.targets, builder.notes, groups)
+                         getattr(world, "lightgroup", "") if lights_diffuse else "")
+    notes = list(dict.fromkeys(builder.notes))  # an object's notes once, however many its instances
+    return Extraction(scene, builder.targets, notes, groups)
 
 
 def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, instancer: str | None) -> None:
@@ -196,9 +199,10 @@ def _add_mesh(builder: _Builder, obj, matrix: np.ndarray, instancer: str | None)
     if not getattr(obj, "visible_diffuse", True):
         builder.notes.append(f"object '{obj.original.name}': invisible to diffuse rays in Cycles, which this bake "
                              "does not follow: it reflects, emits and shades as any surface")
-    _note_light_linking(builder, obj, f"object '{obj.original.name}'")
     materials = [slot.material for slot in obj.material_slots] or [None]
     ids = np.array([builder.surface(material) for material in materials])
+    if any(builder.surfaces[i].emission.any() or builder.surfaces[i].emission_map is not None for i in ids):
+        _note_light_linking(builder, obj, f"object '{obj.original.name}'")
     mesh = obj.to_mesh()
     try:
         mesh.calc_loop_triangles()
@@ -303,7 +307,8 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
     """The light of ``obj`` as Cycles renders it (``BlenderSync::sync_light``): a portal, which
     only guides Cycles' sampling of the world, gives no light, nor does a light invisible to
     diffuse rays (Cycles leaves diffuse surfaces out of its light: ``light_object_visibility_flags``);
-    Cast Shadow off casts none; Soft Falloff dims a point or spot light near it."""
+    Cast Shadow off casts none; Soft Falloff dims a point or spot light near it; an area
+    light's Spread narrows it."""
     light = obj.data
     power = np.array(light.color[:3]) * light.energy * 2.0 ** getattr(light, "exposure", 0.0)
     position, axis = matrix[:3, 3], -matrix[:3, 2]
@@ -326,19 +331,18 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
         builder.notes.append(f"light '{name}': its Max Bounces ({cycles.max_bounces}) is ignored (its light "
                              "bounces as all light does)")
     shadows = bool(getattr(light, "use_shadow", True))
-    soft = bool(getattr(light, "use_soft_falloff", False))  # Blender 4.0+, on by default
     if light.type == "POINT":
-        builder.lights.append(PointLight(position, power, light.shadow_soft_size, shadows, soft))
+        builder.lights.append(PointLight(position, power, light.shadow_soft_size, casts_shadow=shadows,
+                                         soft_falloff=light.use_soft_falloff))
     elif light.type == "SPOT":
         builder.lights.append(SpotLight(position, axis, power, light.spot_size, light.spot_blend, light.shadow_soft_size,
-                                        shadows, soft))
+                                        casts_shadow=shadows, soft_falloff=light.use_soft_falloff))
     elif light.type == "SUN":
-        builder.lights.append(SunLight(axis, power, light.angle, shadows))
+        builder.lights.append(SunLight(axis, power, light.angle, casts_shadow=shadows))
     elif light.type == "AREA":
-        if getattr(light, "spread", np.pi) < np.pi - 1e-6:
-            builder.notes.append(f"light '{name}': spread {np.degrees(light.spread):.0f} deg treated as 180 deg")
         builder.lights.append(area_light(light.shape, light.size, light.size_y, matrix, power,
-                                         getattr(light, "normalize", True), shadows))
+                                         getattr(light, "normalize", True), casts_shadow=shadows,
+                                         spread=min(max(light.spread, 1e-6), np.pi)))
     added = len(builder.lights) - len(builder.light_groups)  # one, or none for a kind not baked
     builder.light_groups += [getattr(obj.original, "lightgroup", "")] * added
 

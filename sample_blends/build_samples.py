@@ -558,7 +558,7 @@ def build_lights() -> bpy.types.Scene:
     add_block("GlowCube", emission("Glow", (1.0, 0.45, 0.12), 5.0), (0.5, -0.6), (0.25, 0.25, 0.25), turn=30)
 
     # Powers in W, chosen by eye so that no pool of light is washed out. The point and spot
-    # lights' radii only soften shadows (their light is that of a point of the same power).
+    # lights' radii soften shadows and, with Soft Falloff (on), dim their light within a few radii.
     add_light("PointLight", "POINT", (-1.4, 0.0, 1.6), 60.0, shadow_soft_size=0.1)
     add_light(
         "SpotLight",

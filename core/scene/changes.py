@@ -11,7 +11,8 @@ from ..util.rows import sorted_labels
 from .lights import source_intensities
 from .model import Scene
 
-# The fields of each light that are not its intensity: a change in any of them moves shadows.
+# The fields of each light that are not its intensity: a change in any of them changes where its
+# light falls (its place, shape, shadows, falloff or spread).
 INTENSITY_FIELDS = ("power", "strength")
 # An environment image that is this close to a multiple of the first (its Background's strength
 # changed) scales that one's light.
@@ -41,7 +42,7 @@ def geometry_change(first: Scene, now: Scene) -> str | None:
         if type(was) is not type(light) or any(
                 not _same(getattr(was, field.name), getattr(light, field.name))
                 for field in dataclasses.fields(was) if field.name not in INTENSITY_FIELDS):
-            return f"light {index} moved, changed its shape or its shadows"
+            return f"light {index} moved or changed its shape, shadows, falloff or spread"
     if now.sky.any() and not first.sky.any():
         return "the sky was black"
     if environment_scale(first, now) is None:

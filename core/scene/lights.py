@@ -119,11 +119,14 @@ class SunLight:
 @dataclass(frozen=True, eq=False)
 class AreaLight:
     """A flat emitter shining from the front of its triangles (K, 3, 3) (right-hand rule);
-    power (3,) W per channel over their total area A: radiance P / (pi A)."""
+    power (3,) W per channel over their total area A: radiance P / (pi A), times, with a
+    ``spread`` s below pi (Blender's Spread, radians), Cycles' soft box
+    ``spread_profile``: the same power, narrowed to the cone of half-angle s / 2 about its normal."""
 
     triangles: np.ndarray
     power: np.ndarray
     casts_shadow: bool = True
+    spread: float = math.pi
 
     def __post_init__(self) -> None:
         triangles = np.array(self.triangles, dtype=np.float64)
@@ -136,6 +139,21 @@ class AreaLight:
         triangles.setflags(write=False)
         object.__setattr__(self, "triangles", triangles)
         object.__setattr__(self, "power", _vector("power", self.power, nonnegative=True))
+        if not 0 < self.spread <= math.pi:
+            raise ValueError(f"spread must be in (0, pi] radians, got {self.spread}")
+
+    def spread_profile(self, cosines: np.ndarray) -> np.ndarray:
+        """The radiance along directions at cosines (any shape) to the light's normal, over the
+        unspread light's: max(tan(s / 2) - tan a, 0) / (tan(s / 2) - s / 2), s the spread, a the
+        angle (Cycles' ``area_light_spread_attenuation``: the share a soft box's slats let
+        through, scaled to keep the power: its integral with cos a over the hemisphere is pi);
+        1 for a spread of pi."""
+        if self.spread >= math.pi:
+            return np.ones_like(cosines)
+        half = self.spread / 2
+        cosines = np.clip(cosines, 0.0, 1.0)
+        tangents = np.sqrt(1.0 - cosines**2) / np.maximum(cosines, np.finfo(float).tiny)
+        return np.maximum(math.tan(half) - tangents, 0.0) / (math.tan(half) - half)
 
     @property
     def radiance(self) -> np.ndarray:
@@ -150,7 +168,7 @@ AREA_SHAPES = ("SQUARE", "RECTANGLE", "DISK", "ELLIPSE")
 
 
 def area_light(shape: str, size: float, size_y: float, matrix: np.ndarray, power, normalize: bool = True,
-               casts_shadow: bool = True) -> AreaLight:
+               casts_shadow: bool = True, spread: float = math.pi) -> AreaLight:
     """The AreaLight of a Blender area light: ``shape`` one of AREA_SHAPES, ``size`` (and
     ``size_y`` for RECTANGLE and ELLIPSE) its widths in its local XY plane, shining down its
     local -Z axis; ``matrix`` (4, 4) local to world (scale included). Without ``normalize``
@@ -178,7 +196,7 @@ def area_light(shape: str, size: float, size_y: float, matrix: np.ndarray, power
         triangles = triangles[:, ::-1]
     if not normalize:
         power = np.asarray(power, dtype=np.float64) * areas_and_normals(triangles)[0].sum()
-    return AreaLight(triangles, power, casts_shadow)
+    return AreaLight(triangles, power, casts_shadow, spread)
 
 
 LIGHT_TYPES = (PointLight, SpotLight, SunLight, AreaLight)

@@ -11,6 +11,7 @@ output is G itself):
           for the angle a off the axis, spot size s and blend b
     sun, strength E (W/m^2):                                    G = E cos(theta) / pi
     area light, power P over area A, one-sided:                 G = P / (pi A) * F(point -> light)
+          (with a spread s: F weighted over the light by ``AreaLight.spread_profile``)
     sky, colour C x strength k:                                  G = C k * (share of the
           cosine-weighted hemisphere that sees no surface)
     environment, radiance L(d) from direction d:                 G = mean over cosine-weighted
@@ -24,7 +25,7 @@ Lights do not block or reflect light (they are not geometry), as in Cycles. A po
 light of radius r lights as its centre does (the irradiance of a uniformly bright sphere is that
 of a point of the same power), or with Soft Falloff, as Cycles lights it then, as a disc of
 radius r facing the point, whose radiance P / (4 pi^2 r^2) fills a cone of sin^2 = r^2 / (d^2 +
-r^2) (``point.h``; checked against a Cycles render, tests/addon/test_cycles_conventions.py); both
+r^2) (``point.h``; checked against a Cycles render: docs/notes/experiments.md, "Soft Falloff"); both
 exact while the light is above the point's horizon. Either is seen from a point as the disc of
 radius r facing it: its visibility is the share of ``rays`` stratified points of that disc seen;
 a sun of angular diameter a likewise, over ``rays`` directions uniform in the cone of half-angle
@@ -84,6 +85,11 @@ OUTLINE_LOOKS = 2
 # (docs/notes/experiments.md, "Embree's faster scene for the random rays").
 NEXT_DOOR_RAYS = 16
 NEXT_DOOR_POINTS = 3
+# An area light of a spread is sampled with SPREAD_SAMPLES_PER_RAY x ``rays`` points of each piece:
+# its profile changes across a piece (against the profile integrated finely, the floor 1 m under a
+# 1 m light read 2.0 / 0.55 % RMS off at 16 / 64 points for a spread of 40 degrees, 0.55 / 0.16 % for
+# 90: docs/notes/experiments.md, "Soft Falloff").
+SPREAD_SAMPLES_PER_RAY = 4
 # The pieces that splitting the area lights (``discretize.light_divisions``) may add, all lights together:
 # each piece costs its rays at every point.
 MAX_ADDED_LIGHT_PIECES = 256
@@ -164,7 +170,7 @@ class DirectLighting:
         if not self.lights:
             return np.zeros((len(points), 0, 3))
         factors = self._in_blocks(points, normals, lambda block, block_normals, key: self._sharp(
-            block, block_normals, key) + self._area_lights(block, block_normals), lambda _fraction: None,
+            block, block_normals, key) + self._area_lights(block, block_normals, key), lambda _fraction: None,
                                   streams.NODES)
         return factors[:, : len(self.lights)]
 
@@ -297,7 +303,7 @@ class DirectLighting:
         along its neighbours' open directions (``_sky_next_door``), the mean of OUTLINE_LOOKS looks
         along its outline (``_looked``); and (m, S, 3) the standard error of that mean, from the
         looks' spread (zero elsewhere)."""
-        result = self._area_lights(points, normals)
+        result = self._area_lights(points, normals, key)
         noise = np.zeros_like(result)
         if self.sky.any() or self.environment is not None:
             rotation = self._rotation(key, len(points))
@@ -391,22 +397,53 @@ class DirectLighting:
             lights.append(through[..., None] * self.environment.at(directions))
         return lights
 
-    def _area_lights(self, points, normals) -> np.ndarray:
+    def _area_lights(self, points, normals, key: tuple[int, ...]) -> np.ndarray:
         """(m, S, 3) area lights at points, per unit of power: kernel-weighted shadow rays to
-        stratified samples (the exact unoccluded form factors for a light that casts no shadow),
-        times 1 / (pi A)."""
+        stratified samples (the exact unoccluded form factors for a light that casts no shadow;
+        ``_spread_factors`` for a light of a spread), times 1 / (pi A)."""
         result = np.zeros((len(points), self.source_count, 3))
         count = len(points)
         for index, pieces, caster in self._area:
-            sources = len(pieces)
+            light, sources = self.lights[index], len(pieces)
             receivers, pieces_of = np.repeat(np.arange(count), sources), np.tile(np.arange(sources), count)
-            if self.lights[index].casts_shadow:
+            if light.spread < math.pi:
+                factors = self._spread_factors(points, normals, light, pieces, streams.generator(
+                    self.seed, streams.LIGHT_SAMPLES, *key, index))
+            elif light.casts_shadow:
                 factors = caster.form_factors(points, normals, receivers, pieces_of)
             else:
                 factors = point_to_triangle(points[receivers], normals[receivers], pieces[pieces_of])
-            area = areas_and_normals(self.lights[index].triangles)[0].sum()
+            area = areas_and_normals(light.triangles)[0].sum()
             result[:, index] = (factors.reshape(count, sources).sum(axis=1) / (math.pi * area))[:, None]
         return result
+
+    def _spread_factors(self, points, normals, light: AreaLight, pieces: np.ndarray,
+                        rng: np.random.Generator) -> np.ndarray:
+        """(m K,) the form factors from each of the m points to each of the K ``pieces`` of an
+        area ``light`` of a spread, weighted over the piece by its ``spread_profile`` f, point by
+        point then piece by piece: the exact unoccluded form factor times the ratio, over
+        SPREAD_SAMPLES_PER_RAY x ``rays`` stratified samples y of the piece (Cranley-Patterson rotated per point), of sum w f v to
+        sum w, w the unoccluded kernel cos_x cos_y / (r^2 + A / (pi samples)) and v whether the point
+        sees y (1 for a light that casts no shadow): with f = 1 the ray-cast form factor."""
+        count, sources, rays = len(points), len(pieces), self.rays * SPREAD_SAMPLES_PER_RAY
+        areas, facing = areas_and_normals(pieces)
+        rotation = rng.random((count * sources, 1, 2))
+        samples = stratified_samples(np.repeat(pieces[None], count, axis=0).reshape(-1, 3, 3), rays,
+                                     rotation).reshape(count, sources * rays, 3)
+        offsets = samples - points[:, None]  # (m, K s, 3) from each point to the samples
+        distance2 = np.einsum("mkx,mkx->mk", offsets, offsets)
+        distance = np.sqrt(distance2)
+        piece = np.arange(sources * rays) // rays
+        cos_light = -np.einsum("mkx,kx->mk", offsets, facing[piece]) / distance
+        cos_point = np.einsum("mkx,mx->mk", offsets, normals) / distance
+        kernel = np.maximum(cos_point, 0) * np.maximum(cos_light, 0) / (distance2 + areas[piece] / (math.pi * rays))
+        weighted = kernel * light.spread_profile(cos_light)
+        if light.casts_shadow:
+            weighted = weighted * self._unblocked(points, normals, offsets, 1.0, jittered=True)
+        kernel, weighted = (values.reshape(count, sources, rays).sum(axis=2) for values in (kernel, weighted))
+        exact = point_to_triangle(np.repeat(points, sources, axis=0), np.repeat(normals, sources, axis=0),
+                                  np.tile(pieces, (count, 1, 1))).reshape(count, sources)
+        return (exact * np.divide(weighted, kernel, out=np.zeros_like(kernel), where=kernel > 0)).reshape(-1)
 
     def _open_sky(self, points, normals, rotation,
                   sky_rays: int = SKY_RAYS_PER_RAY) -> tuple[np.ndarray, np.ndarray]:

@@ -193,6 +193,36 @@ def test_rectangular_area_light_gives_radiance_times_b3(shape):
     np.testing.assert_allclose(colours[:, 0], RHO * radiance * factors, rtol=NODE_RTOL)
 
 
+@pytest.mark.parametrize("spread_degrees", [90, 40])
+def test_an_area_light_of_a_spread_lights_by_cycles_soft_box_profile(spread_degrees):
+    """Blender's Spread narrows an area light as Cycles' soft box does (``AreaLight.spread_profile``,
+    the radiance at angle a off the normal times max(tan(s/2) - tan a, 0) / (tan(s/2) - s/2)): the
+    floor under a 1 m square light reads its form factor weighted by that profile, integrated here
+    over 300 x 300 cells of the light. The bake samples the profile at 64 points of each piece:
+    over seeds 0 to 2 its worst corner was 0.6 % (90 degrees) and 1.2 % (40) off; outside the cone
+    it reads exactly 0."""
+    height, size = 1.0, 1.0
+    matrix = np.eye(4)
+    matrix[:3, 3] = [0.0, 0.0, height]
+    light = area_light("SQUARE", size, 0.0, matrix, [30.0] * 3, spread=math.radians(spread_degrees))
+    scene = floor_scene(lights=[light])
+    points, colours = vertex_values(scene, bake(scene).corner_colors)
+    cells = (np.arange(300) + 0.5) / 300 * size - size / 2
+    x, y = (grid.ravel() for grid in np.meshgrid(cells, cells))
+    weighted = []
+    for px, py, _ in points:
+        distance2 = (x - px) ** 2 + (y - py) ** 2 + height**2
+        cosine = height / np.sqrt(distance2)
+        weighted.append((light.spread_profile(cosine) * cosine**2 / (math.pi * distance2)).sum() * (size / 300) ** 2)
+    expected = RHO * 30.0 / (math.pi * size * size) * np.array(weighted)
+    lit = expected > 0.05 * expected.max()
+    np.testing.assert_allclose(colours[lit, 0], expected[lit], rtol=0.02)
+    np.testing.assert_array_equal(colours[expected == 0], 0.0)
+    unspread = area_light("SQUARE", size, 0.0, matrix, [30.0] * 3)
+    assert np.abs(bake(floor_scene(lights=[unspread])).corner_colors.reshape(-1, 3)[:, 0] - colours[:, 0]).max() \
+        > 0.3 * expected.max()  # the spread changes the light
+
+
 def test_disk_area_light_gives_radiance_times_b12_on_its_axis():
     radius, height = 0.5, 0.8
     matrix = np.diag([1.0, 1.0, 1.0, 1.0])
