@@ -310,9 +310,9 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
     Cast Shadow off casts none; Soft Falloff dims a point or spot light near it; an area
     light's Spread narrows it."""
     light = obj.data
-    power = np.array(light.color[:3]) * light.energy * 2.0 ** getattr(light, "exposure", 0.0)
-    position, axis = matrix[:3, 3], -matrix[:3, 2]
     name = obj.original.name
+    power = _light_colour(builder, light, name) * light.energy * 2.0 ** getattr(light, "exposure", 0.0)
+    position, axis = matrix[:3, 3], -matrix[:3, 2]
     cycles = getattr(light, "cycles", None)
     if light.type == "AREA" and getattr(cycles, "is_portal", False):
         builder.notes.append(f"light '{name}': a portal, which guides Cycles' sampling of the world and gives no "
@@ -322,10 +322,6 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
         builder.notes.append(f"light '{name}': invisible to diffuse rays (Visibility > Ray Visibility), so it "
                              "lights no diffuse surface in Cycles, skipped")
         return
-    if getattr(light, "use_nodes", False):
-        builder.notes.append(f"light '{name}': its node setup is ignored (colour x power used)")
-    if getattr(light, "use_temperature", False):
-        builder.notes.append(f"light '{name}': its blackbody temperature is ignored (colour x power used)")
     _note_light_linking(builder, obj, f"light '{name}'")
     if getattr(cycles, "max_bounces", MAX_LIGHT_BOUNCES) < MAX_LIGHT_BOUNCES:
         builder.notes.append(f"light '{name}': its Max Bounces ({cycles.max_bounces}) is ignored (its light "
@@ -345,6 +341,27 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
                                          spread=min(max(light.spread, 1e-6), np.pi)))
     added = len(builder.lights) - len(builder.light_groups)  # one, or none for a kind not baked
     builder.light_groups += [getattr(obj.original, "lightgroup", "")] * added
+
+
+def _light_colour(builder: _Builder, light, name: str) -> np.ndarray:
+    """(3,) a light's colour as Cycles multiplies its power by it (``BlenderSync::sync_light`` and
+    the light's shader): its Color, times its blackbody ``temperature_color`` where it uses a
+    temperature (where this Blender has one), times an Emission node's unlinked Color x Strength
+    where its node setup is just that into the Light Output (checked against Cycles renders:
+    docs/notes/experiments.md, "A light's colour"); any other setup is left out, with a note."""
+    colour = np.array(light.color[:3], dtype=np.float64)
+    if getattr(light, "use_temperature", False):
+        colour *= np.array(light.temperature_color[:3])
+    tree = light.node_tree if getattr(light, "use_nodes", False) else None
+    output = tree.get_output_node("CYCLES") if tree is not None else None
+    if output is None or not output.inputs["Surface"].is_linked:
+        return colour
+    node = output.inputs["Surface"].links[0].from_node
+    inputs = node.inputs if node.bl_idname == "ShaderNodeEmission" else None
+    if inputs is None or inputs["Color"].is_linked or inputs["Strength"].is_linked:
+        builder.notes.append(f"light '{name}': its node setup is ignored (colour x power used)")
+        return colour
+    return colour * np.array(inputs["Color"].default_value[:3]) * float(inputs["Strength"].default_value)
 
 
 def _note_light_linking(builder: _Builder, obj, what: str) -> None:

@@ -94,6 +94,26 @@ def test_a_point_light_of_a_radius_with_and_without_soft_falloff(floor, soft_fal
     np.testing.assert_allclose(colours, expected, rtol=RTOL)
 
 
+def test_a_lights_colour_takes_its_temperature_and_its_emission_node(floor):
+    """Cycles multiplies a light's power by its colour, its blackbody colour (where this Blender
+    has one) and its Emission node's colour x strength (checked by Cycles renders: 0.998 to 1.001
+    of that product in every channel, docs/notes/experiments.md, "A light's colour")."""
+    lamp = light_object("Lamp", "POINT", (0.3, -0.2, 1.5), 100.0, colour=(1.0, 0.8, 0.6))
+    lamp.data.use_nodes = True
+    emission = next(node for node in lamp.data.node_tree.nodes if node.bl_idname == "ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (1.0, 0.5, 0.25, 1.0)
+    emission.inputs["Strength"].default_value = 2.0
+    colour = np.array([1.0, 0.8, 0.6]) * np.array([2.0, 1.0, 0.5])
+    if hasattr(lamp.data, "use_temperature"):
+        lamp.data.use_temperature, lamp.data.temperature = True, 3000.0
+        colour = colour * np.array(lamp.data.temperature_color)
+    points, colours = baked(floor)
+    offset = np.array(lamp.location) - points
+    r2 = (offset**2).sum(axis=1)
+    expected = RHO * 100.0 * colour * (offset[:, 2] / np.sqrt(r2) / (4 * math.pi**2 * r2))[:, None]
+    np.testing.assert_allclose(colours, expected, rtol=RTOL)
+
+
 def test_spot_light_inside_its_cone_and_beyond(floor):
     spot = light_object("Spot", "SPOT", (0.0, 0.0, 1.0), 200.0, spot_size=math.radians(90), spot_blend=0.3,
                         shadow_soft_size=0.0)
