@@ -27,9 +27,10 @@ of a point of the same power), or with Soft Falloff, as Cycles lights it then, a
 radius r facing the point, whose radiance P / (4 pi^2 r^2) fills a cone of sin^2 = r^2 / (d^2 +
 r^2) (``point.h``; checked against a Cycles render: docs/notes/experiments.md, "Soft Falloff"); both
 exact while the light is above the point's horizon. Either is seen from a point as the disc of
-radius r facing it: its visibility is the share of ``rays`` stratified points of that disc seen;
-a sun of angular diameter a likewise, over ``rays`` directions uniform in the cone of half-angle
-a / 2.
+radius r facing it: its visibility is the share of ``rays`` stratified points of that disc seen,
+and a spot's cone mask is taken along each point's ray, as Cycles does (so a radius softens the
+cone's edge); a sun of angular diameter a likewise, over ``rays`` directions uniform in the cone of
+half-angle a / 2.
 """
 
 from __future__ import annotations
@@ -251,14 +252,19 @@ class DirectLighting:
                 towards = offset / np.maximum(distance, np.finfo(float).tiny)[:, None]
                 spread = distance * distance + (light.radius ** 2 if light.soft_falloff else 0.0)
                 strength = np.maximum((normals * towards).sum(axis=1), 0.0) / spread
-                if isinstance(light, SpotLight):
+                spot = isinstance(light, SpotLight)
+                if spot and light.radius > 0:  # the cone widened by the disc as seen from the point
+                    widened = light.spot_size / 2 + np.arcsin(np.minimum(light.radius / np.maximum(
+                        distance, np.finfo(float).tiny), 1.0))
+                    strength[-towards @ light.direction <= np.cos(np.minimum(widened, math.pi))] = 0.0
+                elif spot:
                     strength *= light.cone_mask(-towards)
                 lit = np.flatnonzero(strength > 0)
-                if not light.casts_shadow:
-                    seen = 1.0
-                elif light.radius > 0:
+                if light.radius > 0 and (spot or light.casts_shadow):
                     samples = self._light_samples(lit, key, index, paired)
-                    seen = self._seen_on_disc(points[lit], normals[lit], light.position, light.radius, samples)
+                    seen = self._seen_on_disc(points[lit], normals[lit], light, samples)
+                elif not light.casts_shadow:
+                    seen = 1.0
                 else:
                     seen = self._unblocked(points[lit], normals[lit], offset[lit][:, None], 1.0, jittered=False)[:, 0]
                 result[lit, index] = (strength[lit] * seen / (4 * math.pi**2))[:, None]
@@ -276,15 +282,29 @@ class DirectLighting:
         rotation = rng.random((int(chosen.max()) + 1 if len(chosen) else 0, 1, 2))[chosen]
         return (grid[None] + rotation) % 1.0
 
-    def _seen_on_disc(self, points, normals, centre, radius, samples) -> np.ndarray:
-        """(k,) the share of the samples (k, s, 2) of the disc of ``radius`` about ``centre``,
-        facing each point, that the point sees."""
-        towards = centre - points
-        tangent, bitangent = tangent_frames(towards / np.maximum(np.linalg.norm(towards, axis=1), 1e-300)[:, None])
-        r, angle = radius * np.sqrt(samples[..., 0]), 2 * math.pi * samples[..., 1]
-        targets = (centre + (r * np.cos(angle))[..., None] * tangent[:, None]
+    def _seen_on_disc(self, points, normals, light: PointLight | SpotLight, samples) -> np.ndarray:
+        """(k,) the share of the light each point gets of its unshaded light, over the samples
+        (k, s, 2) of the disc of the light's radius about its position, facing the point: sum k v m
+        / sum k, k the unoccluded kernel cos_point cos_disc / r^2 of each sample, v whether the
+        point sees it (1 for a light that casts no shadow), m a spot's cone mask along the ray from
+        the sample to the point (Cycles' ``spot_light_sample`` masks each light sample so: a
+        light's radius softens its cone's edge; 1 for a point light)."""
+        towards = light.position - points
+        facing = towards / np.maximum(np.linalg.norm(towards, axis=1), 1e-300)[:, None]
+        tangent, bitangent = tangent_frames(facing)
+        r, angle = light.radius * np.sqrt(samples[..., 0]), 2 * math.pi * samples[..., 1]
+        targets = (light.position + (r * np.cos(angle))[..., None] * tangent[:, None]
                    + (r * np.sin(angle))[..., None] * bitangent[:, None])  # (k, s, 3)
-        return self._unblocked(points, normals, targets - points[:, None], 1.0, jittered=False).mean(axis=1)
+        offsets = targets - points[:, None]
+        distance2 = np.einsum("ksx,ksx->ks", offsets, offsets)
+        kernel = (np.maximum(np.einsum("ksx,kx->ks", offsets, normals), 0.0)
+                  * np.maximum(np.einsum("ksx,kx->ks", offsets, facing), 0.0) / (distance2 * distance2))
+        share = self._unblocked(points, normals, offsets, 1.0, jittered=False) if light.casts_shadow \
+            else np.ones(offsets.shape[:2])
+        if isinstance(light, SpotLight):
+            share = share * light.cone_mask(-offsets / np.sqrt(distance2)[..., None])
+        total = kernel.sum(axis=1)
+        return np.divide((kernel * share).sum(axis=1), total, out=np.zeros(len(points)), where=total > 0)
 
     def _seen_in_cone(self, points, normals, axis, half_angle, samples) -> np.ndarray:
         """(k,) the share of the directions (uniform in solid angle within ``half_angle`` of the
