@@ -172,7 +172,8 @@ def area_light(shape: str, size: float, size_y: float, matrix: np.ndarray, power
     """The AreaLight of a Blender area light: ``shape`` one of AREA_SHAPES, ``size`` (and
     ``size_y`` for RECTANGLE and ELLIPSE) its widths in its local XY plane, shining down its
     local -Z axis; ``matrix`` (4, 4) local to world (scale included). Without ``normalize``
-    (Blender 4.1+), ``power`` is what each square unit of the light emits."""
+    (a setting of newer Blender: 5.0 has it, 4.2 not), ``power`` is what each square unit of the
+    light emits."""
     if shape not in AREA_SHAPES:
         raise ValueError(f"area light shape must be one of {AREA_SHAPES}, got {shape!r}")
     width = size

@@ -169,6 +169,17 @@ def test_an_area_light_of_a_spread(floor):
     assert lamp.data.spread < math.pi
 
 
+@pytest.mark.skipif("normalize" not in bpy.types.AreaLight.bl_rna.properties, reason="this Blender always normalizes")
+def test_an_area_light_not_normalized_gives_its_power_per_square_unit(floor):
+    """Normalize off (5.0 has it, 4.2 not): Cycles takes the power as each square metre's
+    (radiance P / pi); a Cycles render of a 2 m light of 100 W 1 m over this floor read 0.999 to
+    1.000 of that ring by ring (docs/notes/experiments.md, "An area light's Spread")."""
+    light_object("Area", "AREA", (0.2, 0.1, 1.2), 30.0, shape="SQUARE", size=2.0, normalize=False)
+    points, colours = baked(floor)
+    factors = np.array([b3_anywhere(x, y, -0.8, 1.2, -0.9, 1.1, 1.2) for x, y, _ in points])
+    np.testing.assert_allclose(colours, RHO * (30.0 / math.pi) * factors[:, None], rtol=RTOL)
+
+
 def test_disk_area_light_on_its_axis(floor):
     light_object("Disk", "AREA", (0.0, 0.0, 0.8), 10.0, shape="DISK", size=1.0)
     points, colours = baked(floor)
