@@ -311,7 +311,6 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
     light's Spread narrows it."""
     light = obj.data
     name = obj.original.name
-    power = _light_colour(builder, light, name) * light.energy * 2.0 ** getattr(light, "exposure", 0.0)
     position, axis = matrix[:3, 3], -matrix[:3, 2]
     cycles = getattr(light, "cycles", None)
     if light.type == "AREA" and getattr(cycles, "is_portal", False):
@@ -322,6 +321,7 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
         builder.notes.append(f"light '{name}': invisible to diffuse rays (Visibility > Ray Visibility), so it "
                              "lights no diffuse surface in Cycles, skipped")
         return
+    power = _light_colour(builder, light, name) * light.energy * 2.0 ** getattr(light, "exposure", 0.0)
     _note_light_linking(builder, obj, f"light '{name}'")
     if getattr(cycles, "max_bounces", MAX_LIGHT_BOUNCES) < MAX_LIGHT_BOUNCES:
         builder.notes.append(f"light '{name}': its Max Bounces ({cycles.max_bounces}) is ignored (its light "

@@ -87,7 +87,7 @@ class SpotLight:
             raise ValueError(f"spot_blend must be in [0, 1], got {self.spot_blend}")
 
     def cone_mask(self, towards_points: np.ndarray) -> np.ndarray:
-        """(n,) Cycles' spot attenuation for unit vectors (n, 3) from the light to the points."""
+        """(...,) Cycles' spot attenuation for unit vectors (..., 3) from the light to the points."""
         cos_half = math.cos(self.spot_size / 2)
         cosine = towards_points @ self.direction
         smooth = (1 - cos_half) * self.spot_blend

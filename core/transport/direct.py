@@ -46,7 +46,7 @@ from ..scene.lights import AreaLight, Environment, PointLight, SpotLight, SunLig
 from ..util import parallel, streams
 from ..util.geometry import areas_and_normals, orthonormal_frames, subdivide, tangent_frames
 from .analytic import point_to_triangle
-from .raycast import RayCaster, stratified_samples
+from .raycast import RayCaster, lattice, stratified_samples
 
 # Evaluation points per block of work (each with up to a few thousand rays).
 POINTS_PER_BLOCK = 1024
@@ -86,11 +86,16 @@ OUTLINE_LOOKS = 2
 # (docs/notes/experiments.md, "Embree's faster scene for the random rays").
 NEXT_DOOR_RAYS = 16
 NEXT_DOOR_POINTS = 3
-# An area light of a spread is sampled with SPREAD_SAMPLES_PER_RAY x ``rays`` points of each piece:
-# its profile changes across a piece (against the profile integrated finely, the floor 1 m under a
-# 1 m light read 2.0 / 0.55 % RMS off at 16 / 64 points for a spread of 40 degrees, 0.55 / 0.16 % for
-# 90: docs/notes/experiments.md, "Soft Falloff").
+# An area light of a spread is sampled with SPREAD_SAMPLES_PER_RAY x ``rays`` points of each piece,
+# or of the disc its profile leaves lit where that disc is under 1 / NARROW of the light's area
+# (``_spread_light``): against the profile integrated finely, the floor 1 m under a 1 m light read
+# 0.15 % RMS off at 90 degrees, 0.9 % at 40, 3 % at 20, 10 or 2 (6.5 % at worst, under the light's
+# edge, where the disc is cut); docs/notes/experiments.md, "An area light's Spread".
 SPREAD_SAMPLES_PER_RAY = 4
+NARROW = 8
+# Samples (points x pieces x samples of each) of lights of a spread taken at once: bounds a block's
+# memory (some 150 bytes each).
+SPREAD_SAMPLES = 1 << 18
 # The pieces that splitting the area lights (``discretize.light_divisions``) may add, all lights together:
 # each piece costs its rays at every point.
 MAX_ADDED_LIGHT_PIECES = 256
@@ -99,7 +104,8 @@ MAX_ADDED_LIGHT_PIECES = 256
 class DirectLighting:
     """G = H / pi from the lights and the sky at points, with shadows by rays.
 
-    rays : light samples per piece of an area light (as the bake's rays per form factor; the sky
+    rays : light samples per piece of an area light (SPREAD_SAMPLES_PER_RAY times as many for one of
+        a spread; as the bake's rays per form factor; the sky
         gets SKY_RAYS_PER_RAY times as many directions per point, PATCH_SKY_RAYS_PER_RAY times per
         patch); seed fixes them. An area light of few triangles is split into at least
         ``discretize.MIN_LIGHT_PIECES`` pieces (its penumbrae need them), unless the splits of all
@@ -262,7 +268,7 @@ class DirectLighting:
                 lit = np.flatnonzero(strength > 0)
                 if light.radius > 0 and (spot or light.casts_shadow):
                     samples = self._light_samples(lit, key, index, paired)
-                    seen = self._seen_on_disc(points[lit], normals[lit], light, samples)
+                    seen = self._seen_on_disc(points[lit], normals[lit], light, samples, paired)
                 elif not light.casts_shadow:
                     seen = 1.0
                 else:
@@ -282,28 +288,33 @@ class DirectLighting:
         rotation = rng.random((int(chosen.max()) + 1 if len(chosen) else 0, 1, 2))[chosen]
         return (grid[None] + rotation) % 1.0
 
-    def _seen_on_disc(self, points, normals, light: PointLight | SpotLight, samples) -> np.ndarray:
-        """(k,) the share of the light each point gets of its unshaded light, over the samples
-        (k, s, 2) of the disc of the light's radius about its position, facing the point: sum k v m
-        / sum k, k the unoccluded kernel cos_point cos_disc / r^2 of each sample, v whether the
-        point sees it (1 for a light that casts no shadow), m a spot's cone mask along the ray from
-        the sample to the point (Cycles' ``spot_light_sample`` masks each light sample so: a
-        light's radius softens its cone's edge; 1 for a point light)."""
+    def _seen_on_disc(self, points, normals, light: PointLight | SpotLight, samples, paired: bool) -> np.ndarray:
+        """(k,) the share each point gets of its unshaded light, over the samples (k, s, 2) of the
+        disc of the light's radius about its position, facing the point: sum k v m / sum k, k the
+        unoccluded kernel cos_point cos_disc / r^2 of each sample, v whether the point sees it (1
+        for a light that casts no shadow), m a spot's cone mask along the ray from the sample to
+        the point (Cycles' ``spot_light_sample`` masks each light sample so: a light's radius
+        softens its cone's edge; 1 for a point light). ``paired`` (one sample a point, as a
+        patch's points take a stratum each): k v m over the disc's mean kernel, cos theta / (d^2
+        + R^2) (its projected solid angle pi R^2 cos theta / (d^2 + R^2) over its area), whose
+        mean over the strata is the same share, unbiased."""
         towards = light.position - points
-        facing = towards / np.maximum(np.linalg.norm(towards, axis=1), 1e-300)[:, None]
+        distance2 = np.einsum("kx,kx->k", towards, towards)
+        facing = towards / np.maximum(np.sqrt(distance2), 1e-300)[:, None]
         tangent, bitangent = tangent_frames(facing)
         r, angle = light.radius * np.sqrt(samples[..., 0]), 2 * math.pi * samples[..., 1]
-        targets = (light.position + (r * np.cos(angle))[..., None] * tangent[:, None]
-                   + (r * np.sin(angle))[..., None] * bitangent[:, None])  # (k, s, 3)
-        offsets = targets - points[:, None]
-        distance2 = np.einsum("ksx,ksx->ks", offsets, offsets)
+        offsets = (light.position + (r * np.cos(angle))[..., None] * tangent[:, None]
+                   + (r * np.sin(angle))[..., None] * bitangent[:, None]) - points[:, None]  # (k, s, 3)
+        lengths2 = np.einsum("ksx,ksx->ks", offsets, offsets)
         kernel = (np.maximum(np.einsum("ksx,kx->ks", offsets, normals), 0.0)
-                  * np.maximum(np.einsum("ksx,kx->ks", offsets, facing), 0.0) / (distance2 * distance2))
+                  * np.maximum(np.einsum("ksx,kx->ks", offsets, facing), 0.0) / (lengths2 * lengths2))
         share = self._unblocked(points, normals, offsets, 1.0, jittered=False) if light.casts_shadow \
             else np.ones(offsets.shape[:2])
         if isinstance(light, SpotLight):
-            share = share * light.cone_mask(-offsets / np.sqrt(distance2)[..., None])
+            share = share * light.cone_mask(-offsets / np.sqrt(lengths2)[..., None])
         total = kernel.sum(axis=1)
+        if paired:
+            total = np.maximum(np.einsum("kx,kx->k", normals, facing), 0.0) / (distance2 + light.radius ** 2)
         return np.divide((kernel * share).sum(axis=1), total, out=np.zeros(len(points)), where=total > 0)
 
     def _seen_in_cone(self, points, normals, axis, half_angle, samples) -> np.ndarray:
@@ -420,14 +431,15 @@ class DirectLighting:
     def _area_lights(self, points, normals, key: tuple[int, ...]) -> np.ndarray:
         """(m, S, 3) area lights at points, per unit of power: kernel-weighted shadow rays to
         stratified samples (the exact unoccluded form factors for a light that casts no shadow;
-        ``_spread_factors`` for a light of a spread), times 1 / (pi A)."""
+        ``_spread_light`` for a light of a spread), times 1 / (pi A)."""
         result = np.zeros((len(points), self.source_count, 3))
         count = len(points)
         for index, pieces, caster in self._area:
             light, sources = self.lights[index], len(pieces)
             receivers, pieces_of = np.repeat(np.arange(count), sources), np.tile(np.arange(sources), count)
             if light.spread < math.pi:
-                factors = self._spread_factors(points, normals, light, pieces, streams.generator(
+                factors = np.zeros((count, sources))
+                factors[:, 0] = self._spread_light(points, normals, light, pieces, streams.generator(
                     self.seed, streams.LIGHT_SAMPLES, *key, index))
             elif light.casts_shadow:
                 factors = caster.form_factors(points, normals, receivers, pieces_of)
@@ -437,33 +449,92 @@ class DirectLighting:
             result[:, index] = (factors.reshape(count, sources).sum(axis=1) / (math.pi * area))[:, None]
         return result
 
-    def _spread_factors(self, points, normals, light: AreaLight, pieces: np.ndarray,
-                        rng: np.random.Generator) -> np.ndarray:
-        """(m K,) the form factors from each of the m points to each of the K ``pieces`` of an
-        area ``light`` of a spread, weighted over the piece by its ``spread_profile`` f, point by
-        point then piece by piece: the exact unoccluded form factor times the ratio, over
-        SPREAD_SAMPLES_PER_RAY x ``rays`` stratified samples y of the piece (Cranley-Patterson rotated per point), of sum w f v to
-        sum w, w the unoccluded kernel cos_x cos_y / (r^2 + A / (pi samples)) and v whether the point
-        sees y (1 for a light that casts no shadow): with f = 1 the ray-cast form factor."""
-        count, sources, rays = len(points), len(pieces), self.rays * SPREAD_SAMPLES_PER_RAY
+    def _spread_light(self, points, normals, light: AreaLight, pieces: np.ndarray,
+                      rng: np.random.Generator) -> np.ndarray:
+        """(m,) F_f = 1/pi integral over the light of f cos_x cos_y v / r^2 dA at each point: its
+        form factor weighted by the ``spread_profile`` f, v whether the point sees y (1 for a light
+        that casts no shadow). Where the disc that the profile leaves lit, of radius rho = h tan(s
+        / 2) about the point's foot on the light's plane (h the point's height over it), is under
+        1 / NARROW of the light, samples of that disc (``_spread_disc``; Cycles'
+        ``area_light_spread_clamp_light`` samples so); elsewhere samples of each piece
+        (``_spread_pieces``). n = SPREAD_SAMPLES_PER_RAY x ``rays`` samples a disc or piece,
+        rotated per point, only those of some weight traced, at most SPREAD_SAMPLES at once."""
+        count, sources, samples = len(points), len(pieces), self.rays * SPREAD_SAMPLES_PER_RAY
         areas, facing = areas_and_normals(pieces)
-        rotation = rng.random((count * sources, 1, 2))
-        samples = stratified_samples(np.repeat(pieces[None], count, axis=0).reshape(-1, 3, 3), rays,
-                                     rotation).reshape(count, sources * rays, 3)
-        offsets = samples - points[:, None]  # (m, K s, 3) from each point to the samples
-        distance2 = np.einsum("mkx,mkx->mk", offsets, offsets)
+        normal, corner = facing[0], pieces[0, 0]  # a Blender area light is flat
+        height = (points - corner) @ normal
+        radius = height * math.tan(light.spread / 2)
+        narrow = (height > 0) & (math.pi * radius**2 < areas.sum() / NARROW)
+        disc_turn, piece_turn = rng.random((count, 1, 2)), rng.random((count, sources, 1, 2))
+        result = np.zeros(count)
+        chunk = max(1, SPREAD_SAMPLES // (samples * sources))
+        for first in range(0, count, chunk):
+            rows = np.arange(first, min(first + chunk, count))
+            disc, wide = rows[narrow[rows]], rows[~narrow[rows] & (height[rows] > 0)]
+            if len(disc):
+                result[disc] = self._spread_disc(points[disc], normals[disc], light, pieces, height[disc],
+                                                 radius[disc], disc_turn[disc], samples)
+            if len(wide):
+                result[wide] = self._spread_pieces(points[wide], normals[wide], light, pieces, piece_turn[wide],
+                                                   samples)
+        return result
+
+    def _spread_disc(self, points, normals, light: AreaLight, pieces, height, radius, turn, samples) -> np.ndarray:
+        """``_spread_light`` where the lit disc is smaller than the light: (k,) rho^2 / n sum (2 r /
+        rho) f k v over n samples of the disc of radius ``radius`` (k,) about each point's foot,
+        ``height`` (k,) under it (a rotated rank-1 lattice, uniform in radius and angle: the
+        profile falls about linearly to the rim, so the weight 2 r / rho nearly cancels it),
+        those off the light's ``pieces`` counting 0."""
+        areas, facing = areas_and_normals(pieces)
+        normal = facing[0]
+        tangent, bitangent = tangent_frames(normal[None])
+        square = (lattice(samples)[None] + turn) % 1.0  # (k, n, 2): each sample a radius of its own
+        r, angle = radius[:, None] * square[..., 0], 2 * math.pi * square[..., 1]  # uniform in r: weight 2 r / rho
+        feet = points - height[:, None] * normal
+        on_plane = (feet[:, None] + (r * np.cos(angle))[..., None] * tangent[0]
+                    + (r * np.sin(angle))[..., None] * bitangent[0])  # (k, n, 3)
+        lit = _on_triangles(on_plane, pieces)
+        offsets = on_plane - points[:, None]
+        distance2 = np.einsum("ksx,ksx->ks", offsets, offsets)
+        cos_light = height[:, None] / np.sqrt(distance2)
+        cos_point = np.maximum(np.einsum("ksx,kx->ks", offsets, normals), 0.0) / np.sqrt(distance2)
+        weighted = lit * light.spread_profile(cos_light) * cos_point * cos_light / distance2
+        if light.casts_shadow:
+            weighted = weighted * self._seen_where(points, normals, offsets, weighted > 0)
+        return radius**2 * (2 * square[..., 0] * weighted).mean(axis=1)
+
+    def _spread_pieces(self, points, normals, light: AreaLight, pieces, turn, samples) -> np.ndarray:
+        """``_spread_light`` where the lit disc is not smaller than the light: (k,) the sum over
+        the ``pieces`` of each one's exact unoccluded form factor times the ratio of sum w f v to
+        sum w over n stratified samples of it (Cranley-Patterson ``turn`` (k, K, 1, 2))."""
+        count, sources = len(points), len(pieces)
+        areas, facing = areas_and_normals(pieces)
+        on_light = stratified_samples(np.repeat(pieces[None], count, axis=0).reshape(-1, 3, 3), samples,
+                                      turn.reshape(-1, 1, 2)).reshape(count, sources * samples, 3)
+        offsets = on_light - points[:, None]  # (k, K n, 3)
+        distance2 = np.einsum("ksx,ksx->ks", offsets, offsets)
         distance = np.sqrt(distance2)
-        piece = np.arange(sources * rays) // rays
-        cos_light = -np.einsum("mkx,kx->mk", offsets, facing[piece]) / distance
-        cos_point = np.einsum("mkx,mx->mk", offsets, normals) / distance
-        kernel = np.maximum(cos_point, 0) * np.maximum(cos_light, 0) / (distance2 + areas[piece] / (math.pi * rays))
+        piece = np.arange(sources * samples) // samples
+        cos_light = -np.einsum("ksx,sx->ks", offsets, facing[piece]) / distance
+        cos_point = np.einsum("ksx,kx->ks", offsets, normals) / distance
+        kernel = np.maximum(cos_point, 0) * np.maximum(cos_light, 0) / (distance2 + areas[piece] / (math.pi * samples))
         weighted = kernel * light.spread_profile(cos_light)
         if light.casts_shadow:
-            weighted = weighted * self._unblocked(points, normals, offsets, 1.0, jittered=True)
-        kernel, weighted = (values.reshape(count, sources, rays).sum(axis=2) for values in (kernel, weighted))
+            weighted = weighted * self._seen_where(points, normals, offsets, weighted > 0)
+        kernel, weighted = (values.reshape(count, sources, samples).sum(axis=2) for values in (kernel, weighted))
         exact = point_to_triangle(np.repeat(points, sources, axis=0), np.repeat(normals, sources, axis=0),
                                   np.tile(pieces, (count, 1, 1))).reshape(count, sources)
-        return (exact * np.divide(weighted, kernel, out=np.zeros_like(kernel), where=kernel > 0)).reshape(-1)
+        return (exact * np.divide(weighted, kernel, out=np.zeros_like(kernel), where=kernel > 0)).sum(axis=1)
+
+    def _seen_where(self, points, normals, offsets, chosen) -> np.ndarray:
+        """(k, n) whether each point (k, 3) sees the ends of its ``offsets`` (k, n, 3) where
+        ``chosen`` (k, n) (its rays alone traced), 0 elsewhere."""
+        seen = np.zeros(chosen.shape)
+        point, sample = np.nonzero(chosen)
+        if len(point):
+            seen[point, sample] = self._unblocked(points[point], normals[point], offsets[point, sample][:, None], 1.0,
+                                                  jittered=True)[:, 0]
+        return seen
 
     def _open_sky(self, points, normals, rotation,
                   sky_rays: int = SKY_RAYS_PER_RAY) -> tuple[np.ndarray, np.ndarray]:
@@ -559,6 +630,21 @@ def _joined(columns: list[np.ndarray]) -> np.ndarray:
     """(m, E, 3) the sky's (m,) and the environment's (m, 3) light (``_each_direction``'s, reduced)."""
     return np.stack([np.broadcast_to(column[:, None], (len(column), 3)) if column.ndim == 1 else column
                      for column in columns], axis=1)
+
+
+def _on_triangles(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(..., ) whether each of ``points`` (..., 3), on the triangles' common plane, lies on one of
+    ``triangles`` (K, 3, 3): barycentric coordinates, triangle by triangle."""
+    inside = np.zeros(points.shape[:-1], dtype=bool)
+    for a, b, c in triangles:
+        e1, e2, w = b - a, c - a, points - a
+        d11, d12, d22 = e1 @ e1, e1 @ e2, e2 @ e2
+        w1, w2 = w @ e1, w @ e2
+        denominator = d11 * d22 - d12 * d12
+        u = (d22 * w1 - d12 * w2) / denominator
+        v = (d11 * w2 - d12 * w1) / denominator
+        inside |= (u >= 0) & (v >= 0) & (u + v <= 1)
+    return inside
 
 
 def _strata(count: int) -> np.ndarray:

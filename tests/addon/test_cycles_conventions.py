@@ -150,8 +150,8 @@ def test_area_light(floor, shape):
 def test_an_area_light_of_a_spread(floor):
     """Spread 90 degrees: Cycles' soft box profile (``AreaLight.spread_profile``) over the light,
     integrated over 200 x 200 cells; a Cycles render of this set-up read 0.997 / 1.000 / 1.004 of
-    it over rings 0-0.4, 0.4-0.8, 0.8-1.2 m out (docs/notes/experiments.md, "Soft Falloff"). The
-    bake samples the profile: 2 % (the core's test of it)."""
+    it over rings 0-0.4, 0.4-0.8, 0.8-1.2 m out (docs/notes/experiments.md, "An area light's
+    Spread"). The bake samples the profile: 2 % (the core's test of it)."""
     lamp = light_object("Box", "AREA", (0.0, 0.0, 1.0), 30.0, shape="SQUARE", size=1.0, spread=math.radians(90))
     points, colours = baked(floor)
     cells = (np.arange(200) + 0.5) / 200 - 0.5
