@@ -28,9 +28,9 @@ radius r facing the point, whose radiance P / (4 pi^2 r^2) fills a cone of sin^2
 r^2) (``point.h``; checked against a Cycles render: docs/notes/experiments.md, "Soft Falloff"); both
 exact while the light is above the point's horizon. Either is seen from a point as the disc of
 radius r facing it: its visibility is the share of ``rays`` stratified points of that disc seen,
-and a spot's cone mask is taken along each point's ray, as Cycles does (so a radius softens the
-cone's edge); a sun of angular diameter a likewise, over ``rays`` directions uniform in the cone of
-half-angle a / 2.
+each weighed by its unoccluded kernel, and a spot's cone mask is taken along each point's ray, as
+Cycles does (so a radius softens the cone's edge); a sun of angular diameter a likewise, over
+``rays`` directions uniform in the cone of half-angle a / 2.
 """
 
 from __future__ import annotations
@@ -256,8 +256,8 @@ class DirectLighting:
                 offset = light.position - points
                 distance = np.linalg.norm(offset, axis=1)
                 towards = offset / np.maximum(distance, np.finfo(float).tiny)[:, None]
-                spread = distance * distance + (light.radius ** 2 if light.soft_falloff else 0.0)
-                strength = np.maximum((normals * towards).sum(axis=1), 0.0) / spread
+                falloff = distance * distance + (light.radius ** 2 if light.soft_falloff else 0.0)
+                strength = np.maximum((normals * towards).sum(axis=1), 0.0) / falloff
                 spot = isinstance(light, SpotLight)
                 if spot and light.radius > 0:  # the cone widened by the disc as seen from the point
                     widened = light.spot_size / 2 + np.arcsin(np.minimum(light.radius / np.maximum(
@@ -438,15 +438,15 @@ class DirectLighting:
             light, sources = self.lights[index], len(pieces)
             receivers, pieces_of = np.repeat(np.arange(count), sources), np.tile(np.arange(sources), count)
             if light.spread < math.pi:
-                factors = np.zeros((count, sources))
-                factors[:, 0] = self._spread_light(points, normals, light, pieces, streams.generator(
+                factor = self._spread_light(points, normals, light, pieces, streams.generator(
                     self.seed, streams.LIGHT_SAMPLES, *key, index))
             elif light.casts_shadow:
-                factors = caster.form_factors(points, normals, receivers, pieces_of)
+                factor = caster.form_factors(points, normals, receivers, pieces_of).reshape(count, sources).sum(axis=1)
             else:
-                factors = point_to_triangle(points[receivers], normals[receivers], pieces[pieces_of])
+                factor = point_to_triangle(points[receivers], normals[receivers],
+                                           pieces[pieces_of]).reshape(count, sources).sum(axis=1)
             area = areas_and_normals(light.triangles)[0].sum()
-            result[:, index] = (factors.reshape(count, sources).sum(axis=1) / (math.pi * area))[:, None]
+            result[:, index] = (factor / (math.pi * area))[:, None]
         return result
 
     def _spread_light(self, points, normals, light: AreaLight, pieces: np.ndarray,
@@ -480,13 +480,12 @@ class DirectLighting:
         return result
 
     def _spread_disc(self, points, normals, light: AreaLight, pieces, height, radius, turn, samples) -> np.ndarray:
-        """``_spread_light`` where the lit disc is smaller than the light: (k,) rho^2 / n sum (2 r /
-        rho) f k v over n samples of the disc of radius ``radius`` (k,) about each point's foot,
-        ``height`` (k,) under it (a rotated rank-1 lattice, uniform in radius and angle: the
-        profile falls about linearly to the rim, so the weight 2 r / rho nearly cancels it),
-        those off the light's ``pieces`` counting 0."""
-        areas, facing = areas_and_normals(pieces)
-        normal = facing[0]
+        """``_spread_light`` where the lit disc is under 1 / NARROW of the light: (k,) rho^2 / n sum
+        (2 r / rho) f k v over n samples of the disc of radius ``radius`` (k,) about each point's
+        foot, ``height`` (k,) under it (a rotated rank-1 lattice, uniform in radius and angle: the
+        profile falls about linearly to the rim, so the weight 2 r / rho nearly cancels it), those
+        off the light's ``pieces`` counting 0."""
+        normal = areas_and_normals(pieces)[1][0]
         tangent, bitangent = tangent_frames(normal[None])
         square = (lattice(samples)[None] + turn) % 1.0  # (k, n, 2): each sample a radius of its own
         r, angle = radius[:, None] * square[..., 0], 2 * math.pi * square[..., 1]  # uniform in r: weight 2 r / rho
@@ -504,9 +503,9 @@ class DirectLighting:
         return radius**2 * (2 * square[..., 0] * weighted).mean(axis=1)
 
     def _spread_pieces(self, points, normals, light: AreaLight, pieces, turn, samples) -> np.ndarray:
-        """``_spread_light`` where the lit disc is not smaller than the light: (k,) the sum over
-        the ``pieces`` of each one's exact unoccluded form factor times the ratio of sum w f v to
-        sum w over n stratified samples of it (Cranley-Patterson ``turn`` (k, K, 1, 2))."""
+        """``_spread_light`` where the lit disc is not under 1 / NARROW of the light: (k,) the sum
+        over the ``pieces`` of each one's exact unoccluded form factor times the ratio of sum w f v
+        to sum w over n stratified samples of it (Cranley-Patterson ``turn`` (k, K, 1, 2))."""
         count, sources = len(points), len(pieces)
         areas, facing = areas_and_normals(pieces)
         on_light = stratified_samples(np.repeat(pieces[None], count, axis=0).reshape(-1, 3, 3), samples,
