@@ -129,7 +129,9 @@ class DirectLighting:
         for (index, light), n in zip(area_lights, divisions):
             pieces = subdivide(light.triangles, int(n))
             areas, normals = areas_and_normals(pieces)
-            caster = RayCaster(pieces, normals, areas, visibility, rays, seed + 1 + index)
+            # no RayCaster where ``_area_lights`` reads the light without one (no shadow, or a spread)
+            ray_cast = light.casts_shadow and light.spread >= math.pi
+            caster = RayCaster(pieces, normals, areas, visibility, rays, seed + 1 + index) if ray_cast else None
             self._area.append((index, pieces, caster))
 
     @property
@@ -440,7 +442,7 @@ class DirectLighting:
             if light.spread < math.pi:
                 factor = self._spread_light(points, normals, light, pieces, streams.generator(
                     self.seed, streams.LIGHT_SAMPLES, *key, index))
-            elif light.casts_shadow:
+            elif caster is not None:
                 factor = caster.form_factors(points, normals, receivers, pieces_of).reshape(count, sources).sum(axis=1)
             else:
                 factor = point_to_triangle(points[receivers], normals[receivers],
