@@ -161,6 +161,10 @@ def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True,
         reason = "among the selected objects (Selected Only)" if receivers is not None else "in the scene"
         raise ValueError(f"no mesh {reason} receives colours: check Receives Colours in Object Properties")
     world = depsgraph.scene.world
+    if world is not None and not getattr(getattr(world, "cycles_visibility", None), "diffuse", True):
+        builder.notes.append(f"world '{world.name}': invisible to diffuse rays (Ray Visibility), so it lights no "
+                             "diffuse surface in Cycles, skipped")
+        world = None  # nor does its light group hold any light
     sky, environment = _world_light(world, builder) if world is not None else (np.zeros(3), None)
     reflectance = np.array([s.reflectance for s in builder.surfaces])
     emission = np.array([s.emission for s in builder.surfaces])
@@ -187,9 +191,8 @@ def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True,
         corner_normals=np.concatenate(builder.corner_normals) if shading_normals else None,
         opacity=opacity,
     )
-    lights_diffuse = world is not None and getattr(getattr(world, "cycles_visibility", None), "diffuse", True)
     groups = LightGroups(builder.light_groups, np.concatenate(builder.triangle_groups),
-                         getattr(world, "lightgroup", "") if lights_diffuse else "")
+                         getattr(world, "lightgroup", "") if world is not None else "")
     notes = list(dict.fromkeys(builder.notes))  # an object's notes once, however many its instances
     return Extraction(scene, builder.targets, notes, groups)
 
@@ -376,12 +379,8 @@ def _note_light_linking(builder: _Builder, obj, what: str) -> None:
 def _world_light(world, builder: _Builder) -> tuple[np.ndarray, Environment | None]:
     """The world's light: (3,) background colour x strength as uniform sky light, or an
     Environment where an Environment Texture (equirectangular, through a Mapping's rotation or
-    none) feeds the background colour; none where the world is invisible to diffuse rays."""
+    none) feeds the background colour."""
     notes = builder.notes
-    if not getattr(getattr(world, "cycles_visibility", None), "diffuse", True):
-        notes.append(f"world '{world.name}': invisible to diffuse rays (Ray Visibility), so it lights no diffuse "
-                     "surface in Cycles, skipped")
-        return np.zeros(3), None
     tree = world.node_tree if getattr(world, "use_nodes", True) else None
     output = tree.get_output_node("CYCLES") if tree is not None else None
     if output is None or not output.inputs["Surface"].is_linked:
