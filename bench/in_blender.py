@@ -109,7 +109,7 @@ def _counts(stats: dict) -> dict:
 def _case_cycles(bpy, _package, case: dict) -> dict:
     """A Cycles COMBINED vertex bake of every compared mesh at once (the check case shows it
     equals baking them one by one), timed around ``bpy.ops.object.bake``."""
-    _cycles_settings(bpy.context.scene, case["samples"], case["seed"])
+    unbiased_cycles(bpy.context.scene, case["samples"], case["seed"])
     if case.get("variant"):
         VARIANTS[case["variant"]][1](bpy, case["emitters"])
     meshes = _compared_meshes(bpy, case["emitters"])
@@ -164,7 +164,7 @@ VARIANTS = {
 def _case_check(bpy, _package, case: dict) -> dict:
     """The same Cycles bake (same seed) done per object, each selected alone and active, and for
     all the meshes selected at once: the largest difference, and both times."""
-    _cycles_settings(bpy.context.scene, case["samples"], case["seed"])
+    unbiased_cycles(bpy.context.scene, case["samples"], case["seed"])
     meshes = _compared_meshes(bpy, case["emitters"])
     times = {}
     for name, groups in (("per_object", [[m] for m in meshes]), ("together", [meshes])):
@@ -204,8 +204,7 @@ def _case_live(bpy, package, case: dict) -> dict:
 def _case_render(bpy, _package, case: dict) -> dict:
     """A normal Cycles render of the scene's camera view, in the scene's own colour management."""
     scene = bpy.context.scene
-    _cycles_settings(scene, case["samples"], 0)
-    scene.cycles.use_denoising = False
+    unbiased_cycles(scene, case["samples"], 0)
     _picture_settings(scene)
     scene.render.filepath = case["path"]
     start = time.perf_counter()
@@ -226,15 +225,18 @@ def _picture_settings(scene) -> None:
     scene.render.image_settings.compression = 100
 
 
-def _cycles_settings(scene, samples: int, seed: int) -> None:
-    """The unbiased settings of CYCLES.md (the files have them already; set again so that the
-    studies do not depend on it)."""
+def unbiased_cycles(scene, samples: int, seed: int) -> None:
+    """The unbiased settings of CYCLES.md, and no denoiser (the files have them already; set again
+    so that the studies do not depend on it). Cycles denoises a vertex-colour bake too, as a row of
+    pixels in corner order: on by default, it blends the values of corners that are neighbours in
+    that order, wherever they are (tests/addon/test_cycles_yardstick.py)."""
     scene.render.engine = "CYCLES"
     cycles = scene.cycles
     cycles.device = "CPU"
     cycles.samples = samples
     cycles.seed = seed
     cycles.use_adaptive_sampling = False
+    cycles.use_denoising = False
     cycles.max_bounces = cycles.diffuse_bounces = 64
     cycles.sample_clamp_direct = cycles.sample_clamp_indirect = 0.0
     cycles.light_sampling_threshold = 0.0
