@@ -30,6 +30,10 @@ from .numpy_tracer import NumpyTracer
 # Rays start and stop this far (in unit space, where the scene's extent is 1) from their end points, so a ray does not hit the surface it leaves or the one it aims at (float32
 # resolves about 6e-8 there).
 RAY_EPSILON = 1e-5
+# Where another surface lies nearer than RAY_EPSILON along a point's normal (a face within a hair of
+# another solid, laid on it or through it), its rays start half-way to that surface instead, but no
+# nearer their own than LEAST_LIFT (``Visibility.lifted_unit``).
+LEAST_LIFT = RAY_EPSILON / 32
 BACKENDS = ("embree", "numpy")
 # See-through triangles a ray is followed through (``Visibility.blocked_unit``): beyond, the
 # light left is taken to go on unstopped.
@@ -146,6 +150,24 @@ class Visibility:
     def to_unit(self, points: np.ndarray) -> np.ndarray:
         """(n, 3) float32: world-space points in the unit space rays are traced in."""
         return np.ascontiguousarray((points - self.center) * self.scale, dtype=np.float32)
+
+    def lifted_unit(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """(n, 3) float32: where rays leaving ``points`` (n, 3) of surfaces facing unit ``normals``
+        (n, 3) start, in unit space: RAY_EPSILON off the surface, or half-way (at least LEAST_LIFT)
+        to another surface that one ray along the normal meets nearer than that. Lifted the whole
+        RAY_EPSILON, the rays of a point a hair from a solid that leans over it started inside the
+        solid and saw nothing (docs/notes/experiments.md, "Nodes that read no sky")."""
+        at = self.to_unit(points).astype(np.float64)
+        lift = np.full(len(at), RAY_EPSILON)
+        met = self._run(at + LEAST_LIFT * normals, normals, np.full(len(at), RAY_EPSILON - LEAST_LIFT), "INTERSECT")
+        near = np.flatnonzero(met >= 0)
+        if len(near):
+            planes = self.triangle_normals[met[near]]
+            slope = np.einsum("ij,ij->i", normals[near], planes)
+            height = self.unit_plane_offsets[met[near]] - np.einsum("ij,ij->i", at[near], planes)
+            distance = height / np.where(np.abs(slope) > 1e-12, slope, 1e-12)
+            lift[near] = np.clip(distance / 2, LEAST_LIFT, RAY_EPSILON)
+        return np.ascontiguousarray(at + lift[:, None] * normals, dtype=np.float32)
 
     @staticmethod
     def to_unit_directions(normals: np.ndarray) -> np.ndarray:

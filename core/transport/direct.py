@@ -179,7 +179,7 @@ class DirectLighting:
         if not self.lights:
             return np.zeros((len(points), 0, 3))
         factors = self._in_blocks(points, normals, lambda block, block_normals, key: self._sharp(
-            block, block_normals, key) + self._area_lights(block, block_normals, key), lambda _fraction: None,
+            block, block_normals, key) + self._area_lights(block, block_normals), lambda _fraction: None,
                                   streams.NODES)
         return factors[:, : len(self.lights)]
 
@@ -248,7 +248,7 @@ class DirectLighting:
                 if not light.casts_shadow:
                     seen = 1.0
                 elif light.angle > 0:
-                    samples = self._light_samples(lit, key, index, paired)
+                    samples = self._light_samples(lit, key, index, paired, points[lit])
                     seen = self._seen_in_cone(points[lit], normals[lit], -light.direction, light.angle / 2, samples)
                 else:
                     towards = np.broadcast_to(-light.direction, (len(lit), 3))
@@ -269,7 +269,7 @@ class DirectLighting:
                     strength *= light.cone_mask(-towards)
                 lit = np.flatnonzero(strength > 0)
                 if light.radius > 0 and (spot or light.casts_shadow):
-                    samples = self._light_samples(lit, key, index, paired)
+                    samples = self._light_samples(lit, key, index, paired, points[lit])
                     seen = self._seen_on_disc(points[lit], normals[lit], light, samples, paired)
                 elif not light.casts_shadow:
                     seen = 1.0
@@ -278,16 +278,19 @@ class DirectLighting:
                 result[lit, index] = (strength[lit] * seen / (4 * math.pi**2))[:, None]
         return result
 
-    def _light_samples(self, chosen: np.ndarray, key: tuple[int, ...], light: int, paired: bool) -> np.ndarray:
-        """(k, s, 2) stratified points of the unit square for the points ``chosen`` (k,) of a
-        block: s = ``rays`` strata, each point's rotated at random (Cranley-Patterson); paired, s =
-        1, the stratum of each point's place among its patch's ``rays`` samples."""
+    def _light_samples(self, chosen: np.ndarray, key: tuple[int, ...], light: int, paired: bool,
+                       points: np.ndarray) -> np.ndarray:
+        """(k, s, 2) stratified points of the unit square for the ``points`` (k, 3) ``chosen`` (k,)
+        of a block: s = ``rays`` strata, each point's rotated (Cranley-Patterson) by numbers made
+        from the point itself (``streams.point_uniforms``: a point's light is the same in whatever
+        block it is asked); paired, s = 1, the stratum of each point's place among its patch's
+        ``rays`` samples, the patch's rotation drawn from the block's stream."""
         grid = _strata(self.rays)
-        rng = streams.generator(self.seed, streams.LIGHT_SAMPLES, *key, light)
         if paired:
+            rng = streams.generator(self.seed, streams.LIGHT_SAMPLES, *key, light)
             rotation = rng.random((int(chosen.max()) // self.rays + 1 if len(chosen) else 0, 2))
             return ((grid[chosen % self.rays] + rotation[chosen // self.rays]) % 1.0)[:, None]
-        rotation = rng.random((int(chosen.max()) + 1 if len(chosen) else 0, 1, 2))[chosen]
+        rotation = streams.point_uniforms(self.seed, streams.POINT_TURNS, light, points, 2)[:, None]
         return (grid[None] + rotation) % 1.0
 
     def _seen_on_disc(self, points, normals, light: PointLight | SpotLight, samples, paired: bool) -> np.ndarray:
@@ -336,7 +339,7 @@ class DirectLighting:
         along its neighbours' open directions (``_sky_next_door``), the mean of OUTLINE_LOOKS looks
         along its outline (``_looked``); and (m, S, 3) the standard error of that mean, from the
         looks' spread (zero elsewhere)."""
-        result = self._area_lights(points, normals, key)
+        result = self._area_lights(points, normals)
         noise = np.zeros_like(result)
         if self.sky.any() or self.environment is not None:
             rotation = self._rotation(key, len(points))
@@ -430,7 +433,7 @@ class DirectLighting:
             lights.append(through[..., None] * self.environment.at(directions))
         return lights
 
-    def _area_lights(self, points, normals, key: tuple[int, ...]) -> np.ndarray:
+    def _area_lights(self, points, normals) -> np.ndarray:
         """(m, S, 3) area lights at points, per unit of power: kernel-weighted shadow rays to
         stratified samples (the exact unoccluded form factors for a light that casts no shadow;
         ``_spread_light`` for a light of a spread), times 1 / (pi A)."""
@@ -440,8 +443,7 @@ class DirectLighting:
             light, sources = self.lights[index], len(pieces)
             receivers, pieces_of = np.repeat(np.arange(count), sources), np.tile(np.arange(sources), count)
             if light.spread < math.pi:
-                factor = self._spread_light(points, normals, light, pieces, streams.generator(
-                    self.seed, streams.LIGHT_SAMPLES, *key, index))
+                factor = self._spread_light(points, normals, light, pieces, index)
             elif caster is not None:
                 factor = caster.form_factors(points, normals, receivers, pieces_of).reshape(count, sources).sum(axis=1)
             else:
@@ -451,8 +453,7 @@ class DirectLighting:
             result[:, index] = (factor / (math.pi * area))[:, None]
         return result
 
-    def _spread_light(self, points, normals, light: AreaLight, pieces: np.ndarray,
-                      rng: np.random.Generator) -> np.ndarray:
+    def _spread_light(self, points, normals, light: AreaLight, pieces: np.ndarray, index: int) -> np.ndarray:
         """(m,) F_f = 1/pi integral over the light of f cos_x cos_y v / r^2 dA at each point: its
         form factor weighted by the ``spread_profile`` f, v whether the point sees y (1 for a light
         that casts no shadow). Where the disc that the profile leaves lit, of radius rho = h tan(s
@@ -467,7 +468,8 @@ class DirectLighting:
         height = (points - corner) @ normal
         radius = height * math.tan(light.spread / 2)
         narrow = (height > 0) & (math.pi * radius**2 < areas.sum() / NARROW)
-        disc_turn, piece_turn = rng.random((count, 1, 2)), rng.random((count, sources, 1, 2))
+        turns = streams.point_uniforms(self.seed, streams.POINT_TURNS, index, points, 2 + 2 * sources)
+        disc_turn, piece_turn = turns[:, None, :2], turns[:, 2:].reshape(count, sources, 1, 2)
         result = np.zeros(count)
         chunk = max(1, SPREAD_SAMPLES // (samples * sources))
         for first in range(0, count, chunk):
@@ -569,22 +571,25 @@ class DirectLighting:
         offsets' ends, None to infinity (the offsets then unit directions); ``jittered``: the
         offsets are drawn at random over the hemisphere (the sky's), not the same at every point (a
         sun's, nearly so for a sun of a tiny angle) or aimed at one point (a point light's, nearly
-        so for a small radius). The rays start RAY_EPSILON off the point's surface, a point's rays
-        from one start computed once."""
+        so for a small radius). The rays start off the point's surface (``Visibility.lifted_unit``)
+        and RAY_EPSILON along themselves, as the gathers' do (``Visibility.nearest``): a point a hair
+        inside a solid then sees what they see."""
         visibility = self.visibility
         shape = offsets.shape[:2]
         if offsets.size == 0:
             return np.ones(shape)
-        starts = visibility.to_unit(points) + RAY_EPSILON * normals  # (m, 3)
+        starts = visibility.lifted_unit(points, normals)  # (m, 3)
         if reach is None:  # beyond the scene: every surface is within 1 of the unit space's centre
             directions = np.asarray(offsets, np.float32)
             ray_reach = np.linalg.norm(starts, axis=1)[:, None] + 2.0
+            along = RAY_EPSILON * directions
         else:  # stop RAY_EPSILON short of the end, along the ray
             directions = np.asarray(offsets, np.float32) * np.float32(visibility.scale)
-            lengths = np.linalg.norm(directions, axis=2)
-            ray_reach = reach - RAY_EPSILON / np.maximum(lengths, np.finfo(np.float32).tiny)
+            step = RAY_EPSILON / np.maximum(np.linalg.norm(directions, axis=2), np.finfo(np.float32).tiny)
+            ray_reach = reach - 2 * step
+            along = step[..., None] * directions
         ray_starts, ray_reaches = np.empty((*shape, 3), np.float32), np.empty(shape, np.float32)
-        ray_starts[:], ray_reaches[:] = starts[:, None], ray_reach
+        ray_starts[:], ray_reaches[:] = starts[:, None] + along, ray_reach
         blocked = visibility.blocked_unit(ray_starts.reshape(-1, 3), directions.reshape(-1, 3), ray_reaches.reshape(-1),
                                           jittered=jittered)
         return _seen(blocked).reshape(shape)

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from core import Scene, bake
-from core.rays.visibility import Visibility
+from core.rays.visibility import RAY_EPSILON, Visibility
 from core.transport.analytic import point_to_triangle
 from core.transport import direct
 from core.transport.direct import DirectLighting
@@ -145,6 +145,30 @@ def test_a_soft_lights_samples_paired_with_a_patchs_points_read_what_a_node_read
                                              (NODES, 0))[:, 0, 0]
     expected = facing_disc_light(point, light, cells=96)[0] / light.power[0]
     assert paired.mean() == pytest.approx(expected, rel=0.015)
+
+
+def test_a_soft_lights_reading_at_a_point_is_the_same_whatever_other_points_are_asked():
+    """Points across the soft shadows of a plate under a point light of a radius, a sun of an angle
+    and an area light of a spread: a point's reading of each does not depend on its place in the
+    blocks of points asked, nor on the others asked with it (its samples' rotation is made from
+    the point itself: ``streams.point_uniforms``). A session keeps the lights' light at contact
+    points and reads it again in other sets (``ArrivingLight.sharp``): with rotations drawn per
+    block, its first bake read soft shadows there 1.3e-5 of the largest colour off core.bake's."""
+    plate = quad([-0.3, -0.3, 0.3], [0, 0.6, 0], [0.6, 0, 0])  # facing down
+    lights = (PointLight([0.2, 0.1, 1.0], [50.0] * 3, radius=0.3),
+              SunLight([0.3, 0.2, -1.0], [2.0] * 3, angle=0.2),
+              area_light("SQUARE", 1.0, 1.0, np.array([[1.0, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 1.2], [0, 0, 0, 1]]),
+                         [30.0] * 3, spread=math.radians(60)))
+    lighting = DirectLighting(lights, np.zeros(3), Visibility(plate[0][plate[1]]), 16, 0)
+    side = np.linspace(-0.6, 0.6, 48)
+    points = np.stack(np.meshgrid(side, side) + [np.zeros((48, 48))], axis=-1).reshape(-1, 3)
+    normals = np.tile([0.0, 0, 1], (len(points), 1))
+    every = lighting.light_factors_at(points, normals)
+    reversed_order = lighting.light_factors_at(points[::-1], normals[::-1])[::-1]
+    some = np.arange(700, 1900, 3)
+    assert np.ptp(every[:, :, 0], axis=0).min() > 0.01  # each light's shadow has a penumbra here
+    np.testing.assert_array_equal(reversed_order, every)
+    np.testing.assert_array_equal(lighting.light_factors_at(points[some], normals[some]), every[some])
 
 
 def test_lighting_only_is_irradiance_over_pi_even_on_black_surfaces():
@@ -527,6 +551,35 @@ def test_a_thin_bar_across_the_sky_keeps_its_shadow():
     errors = [DirectLighting((), np.ones(3), visibility, 16, seed).sampled_factors_at(
         points, normals, lambda _done: None)[0][:, 0, 0] - exact for seed in range(16)]
     assert abs(np.mean(errors)) < 0.001, np.mean(errors)
+
+
+def test_a_point_a_hair_from_a_solid_leaning_over_it_reads_the_sky_it_sees():
+    """Points on the floor under the overhang of a closed prism whose wall leans over them at 45
+    degrees, x = delta - z, delta 0.3 RAY_EPSILON (in unit space) from the wall's foot. Lifted
+    RAY_EPSILON along their normal, their rays started inside the prism and every point read no
+    sky; lifted that and RAY_EPSILON along each ray (as the gathers' rays are), 0.010 on average.
+    A ray along the normal now finds the wall and the rays start half-way to it
+    (``Visibility.lifted_unit``). G = 1 - F(point -> prism), F exact (a convex solid's faces seen
+    from outside do not hide one another): 0.1464. Over 16 points and 8 seeds the mean error is
+    held to 0.003 (measured 0.00005), each point's mean reading to 5 % of its G (measured 0.2 %)."""
+    def prism(delta: float) -> np.ndarray:  # the triangle A, B, C of the xz plane from y = -1 to 1, facing out
+        a, b, c = np.array([delta, 0.0]), np.array([delta - 1, 1.0]), np.array([delta + 1, 0.0])
+        at = lambda p, y: [p[0], y, p[1]]  # noqa: E731
+        sides = [quad(at(p, -1), [0, 2, 0], np.r_[q - p][[0, 0, 1]] * [1, 0, 1]) for p, q in ((a, b), (b, c), (c, a))]
+        ends = [np.array([[at(a, -1), at(b, -1), at(c, -1)]]), np.array([[at(a, 1), at(c, 1), at(b, 1)]])]
+        return np.concatenate([vertices[triangles] for vertices, triangles in sides] + ends)
+
+    delta = 0.3 * RAY_EPSILON / Visibility(prism(0.0)).scale  # the scale: 1 / the scene's extent
+    solid = prism(delta)
+    points = np.stack([np.zeros(16), np.linspace(-0.5, 0.5, 16), np.zeros(16)], axis=1)
+    normals = np.tile([0.0, 0, 1], (16, 1))
+    exact = 1 - sum(point_to_triangle(points, normals, np.repeat(corners[None], 16, axis=0)) for corners in solid)
+    visibility = Visibility(solid)
+    readings = np.array([DirectLighting((), np.ones(3), visibility, 16, seed).sampled_factors_at(
+        points, normals, lambda _done: None)[0][:, 0, 0] for seed in range(8)])
+    assert 0.1 < exact.min()
+    assert abs(np.mean(readings - exact)) < 0.003, np.mean(readings - exact)
+    np.testing.assert_allclose(readings.mean(axis=0), exact, rtol=0.05)
 
 
 def room_with_a_blind(spacing=0.025, depth=0.03) -> np.ndarray:
