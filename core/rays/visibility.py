@@ -32,7 +32,8 @@ from .numpy_tracer import NumpyTracer
 RAY_EPSILON = 1e-5
 # Where another surface lies nearer than RAY_EPSILON along a point's normal (a face within a hair of
 # another solid, laid on it or through it), its rays start half-way to that surface instead, but no
-# nearer their own than LEAST_LIFT (``Visibility.lifted_unit``).
+# nearer their own than LEAST_LIFT, from which the probe along the normal starts: a surface nearer
+# still is not seen, and the rays start RAY_EPSILON off as before (``Visibility.lifted_unit``).
 LEAST_LIFT = RAY_EPSILON / 32
 BACKENDS = ("embree", "numpy")
 # See-through triangles a ray is followed through (``Visibility.blocked_unit``): beyond, the
@@ -154,9 +155,10 @@ class Visibility:
     def lifted_unit(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """(n, 3) float32: where rays leaving ``points`` (n, 3) of surfaces facing unit ``normals``
         (n, 3) start, in unit space: RAY_EPSILON off the surface, or half-way (at least LEAST_LIFT)
-        to another surface that one ray along the normal meets nearer than that. Lifted the whole
-        RAY_EPSILON, the rays of a point a hair from a solid that leans over it started inside the
-        solid and saw nothing (docs/notes/experiments.md, "Nodes that read no sky")."""
+        to another surface that a ray along the normal from LEAST_LIFT off meets within RAY_EPSILON.
+        Lifted the whole RAY_EPSILON, the rays of a point a hair from a solid that leans over it
+        started inside the solid and saw nothing (docs/notes/experiments.md, "Nodes that read no
+        sky"); a surface within LEAST_LIFT of the point is not seen, so that band remains."""
         at = self.to_unit(points).astype(np.float64)
         lift = np.full(len(at), RAY_EPSILON)
         met = self._run(at + LEAST_LIFT * normals, normals, np.full(len(at), RAY_EPSILON - LEAST_LIFT), "INTERSECT")
@@ -166,7 +168,7 @@ class Visibility:
             slope = np.einsum("ij,ij->i", normals[near], planes)
             height = self.unit_plane_offsets[met[near]] - np.einsum("ij,ij->i", at[near], planes)
             distance = height / np.where(np.abs(slope) > 1e-12, slope, 1e-12)
-            lift[near] = np.clip(distance / 2, LEAST_LIFT, RAY_EPSILON)
+            lift[near] = np.maximum(np.clip(distance, 0.0, RAY_EPSILON) / 2, LEAST_LIFT)
         return np.ascontiguousarray(at + lift[:, None] * normals, dtype=np.float32)
 
     @staticmethod

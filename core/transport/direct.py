@@ -252,7 +252,8 @@ class DirectLighting:
                     seen = self._seen_in_cone(points[lit], normals[lit], -light.direction, light.angle / 2, samples)
                 else:
                     towards = np.broadcast_to(-light.direction, (len(lit), 3))
-                    seen = self._unblocked(points[lit], normals[lit], towards[:, None], None, jittered=False)[:, 0]
+                    seen = self._unblocked(self.visibility.lifted_unit(points[lit], normals[lit]), towards[:, None], None,
+                                           jittered=False)[:, 0]
                 result[lit, index] = (cosine[lit] * seen / math.pi)[:, None]
             elif isinstance(light, (PointLight, SpotLight)):
                 offset = light.position - points
@@ -274,7 +275,8 @@ class DirectLighting:
                 elif not light.casts_shadow:
                     seen = 1.0
                 else:
-                    seen = self._unblocked(points[lit], normals[lit], offset[lit][:, None], 1.0, jittered=False)[:, 0]
+                    seen = self._unblocked(self.visibility.lifted_unit(points[lit], normals[lit]), offset[lit][:, None], 1.0,
+                                           jittered=False)[:, 0]
                 result[lit, index] = (strength[lit] * seen / (4 * math.pi**2))[:, None]
         return result
 
@@ -313,7 +315,8 @@ class DirectLighting:
         lengths2 = np.einsum("ksx,ksx->ks", offsets, offsets)
         kernel = (np.maximum(np.einsum("ksx,kx->ks", offsets, normals), 0.0)
                   * np.maximum(np.einsum("ksx,kx->ks", offsets, facing), 0.0) / (lengths2 * lengths2))
-        share = self._unblocked(points, normals, offsets, 1.0, jittered=False) if light.casts_shadow \
+        share = self._unblocked(self.visibility.lifted_unit(points, normals), offsets, 1.0, jittered=False) \
+            if light.casts_shadow \
             else np.ones(offsets.shape[:2])
         if isinstance(light, SpotLight):
             share = share * light.cone_mask(-offsets / np.sqrt(lengths2)[..., None])
@@ -330,7 +333,7 @@ class DirectLighting:
         sin_theta, phi = np.sqrt(np.maximum(1.0 - cos_theta ** 2, 0.0)), 2 * math.pi * samples[..., 1]
         directions = (cos_theta[..., None] * axis + (sin_theta * np.cos(phi))[..., None] * tangent[0]
                       + (sin_theta * np.sin(phi))[..., None] * bitangent[0])  # (k, s, 3)
-        return self._unblocked(points, normals, directions, None, jittered=False).mean(axis=1)
+        return self._unblocked(self.visibility.lifted_unit(points, normals), directions, None, jittered=False).mean(axis=1)
 
     def _smooth(self, points, normals, key: tuple[int, ...], outlined: bool = False,
                 sky_rays: int = SKY_RAYS_PER_RAY) -> tuple[np.ndarray, np.ndarray]:
@@ -343,15 +346,16 @@ class DirectLighting:
         noise = np.zeros_like(result)
         if self.sky.any() or self.environment is not None:
             rotation = self._rotation(key, len(points))
-            directions, open_sky = self._open_sky(points, normals, rotation, sky_rays)
+            starts = self.visibility.lifted_unit(points, normals)
+            directions, open_sky = self._open_sky(starts, normals, rotation, sky_rays)
             sky = np.zeros_like(result)
             each = self._each_direction(directions, open_sky)
             sky[:, len(self.lights):] = _joined([along.mean(axis=1) for along in each])
             if outlined:
-                looking, next_door = self._sky_next_door(points, normals, rotation, directions, open_sky)
+                looking, next_door = self._sky_next_door(points, starts, normals, rotation, directions, open_sky)
                 if len(looking):
                     outline = _outline((open_sky[looking] > 0) | next_door)
-                    looks = np.stack([self._looked(points[looking], normals[looking], rotation[looking], outline,
+                    looks = np.stack([self._looked(starts[looking], normals[looking], rotation[looking], outline,
                                                    self._generator(key, look))
                                       for look in range(1, OUTLINE_LOOKS + 1)])
                     columns = slice(len(self.lights), self.source_count)
@@ -360,7 +364,7 @@ class DirectLighting:
             result += sky
         return result, noise
 
-    def _sky_next_door(self, points, normals, rotation, directions, open_sky) -> tuple[np.ndarray, np.ndarray]:
+    def _sky_next_door(self, points, starts, normals, rotation, directions, open_sky) -> tuple[np.ndarray, np.ndarray]:
         """The points (k,) of a block that see the sky along the open ``directions`` (m, K, 3)
         (``open_sky`` (m, K)) of the NEXT_DOOR_POINTS nearest other points that see part of it
         (NEXT_DOOR_RAYS of each), and (k, K) the strata those directions fall in (``_open_sky``'s,
@@ -383,7 +387,7 @@ class DirectLighting:
         candidate = directions[nearest[point, neighbour], stratum]  # (c, 3) world directions
         facing = np.einsum("cx,cx->c", candidate, normals[point]) > 1e-3
         point, candidate = point[facing], candidate[facing]
-        seen = self._unblocked(points[point], normals[point], candidate[:, None], None, jittered=True)[:, 0] > 0
+        seen = self._unblocked(starts[point], candidate[:, None], None, jittered=True)[:, 0] > 0
         point, candidate = point[seen], candidate[seen]
         # the stratum each direction that got through falls in, at its own point's rotation
         local = np.einsum("cij,cj->ci", _frames(normals[point]), candidate.astype(np.float32))
@@ -397,7 +401,7 @@ class DirectLighting:
         through[slot, around * side + across] = True
         return looking, through
 
-    def _looked(self, points, normals, rotation, outline, generator: np.random.Generator) -> np.ndarray:
+    def _looked(self, starts, normals, rotation, outline, generator: np.random.Generator) -> np.ndarray:
         """(m, E, 3) the sky's and the environment's light per unit (E of them) at points, from a
         look at the strata of ``_open_sky`` at ``rotation`` (m, 2): each stratum sampled once, at
         a point drawn from ``generator`` (one shift (m, 2) for all of a point's strata), and those on
@@ -406,7 +410,7 @@ class DirectLighting:
         count, strata = outline.shape
         side = int(round(math.sqrt(strata)))
         shift = generator.random((count, 2))
-        shares = self._each_direction(*self._open_sky(points, normals, rotation + (shift - 0.5) / side))
+        shares = self._each_direction(*self._open_sky(starts, normals, rotation + (shift - 0.5) / side))
         point, stratum = np.nonzero(outline)
         if len(point):
             cells = (_strata(OUTLINE_SPLIT * OUTLINE_SPLIT) - 0.5 / OUTLINE_SPLIT) / side  # (k, 2) the cells' corners
@@ -415,7 +419,7 @@ class DirectLighting:
             square -= np.floor(square)  # modulo 1
             angle = (2 * math.pi * square[..., 1]).astype(np.float32)  # as the directions are
             fine = _cosine_directions(square[..., 0], np.cos(angle), np.sin(angle), _frames(normals)[point])
-            through = self._unblocked(points[point], normals[point], fine, None, jittered=True)
+            through = self._unblocked(starts[point], fine, None, jittered=True)
             fine_shares = self._each_direction(fine, through)
             for share, fine_share in zip(shares, fine_shares):
                 share[point, stratum] = fine_share.mean(axis=1)
@@ -535,13 +539,15 @@ class DirectLighting:
         seen = np.zeros(chosen.shape)
         point, sample = np.nonzero(chosen)
         if len(point):
-            seen[point, sample] = self._unblocked(points[point], normals[point], offsets[point, sample][:, None], 1.0,
+            starts = self.visibility.lifted_unit(points, normals)
+            seen[point, sample] = self._unblocked(starts[point], offsets[point, sample][:, None], 1.0,
                                                   jittered=True)[:, 0]
         return seen
 
-    def _open_sky(self, points, normals, rotation,
+    def _open_sky(self, starts, normals, rotation,
                   sky_rays: int = SKY_RAYS_PER_RAY) -> tuple[np.ndarray, np.ndarray]:
-        """Directions (m, K, 3) over each point's cosine-weighted hemisphere, and which of them
+        """Directions (m, K, 3) over the cosine-weighted hemisphere of each point facing ``normals``
+        (m, 3) whose rays leave from ``starts`` (``Visibility.lifted_unit``), and which of them
         (m, K) see no surface: K = ``rays`` x ``sky_rays`` stratified directions by Malley's
         method (``_cosine_directions``), each point's strata turned by its ``rotation`` (m, 2) of
         the unit square (random: Cranley-Patterson)."""
@@ -552,7 +558,7 @@ class DirectLighting:
                                         np.cos(stratum) * np.cos(turn) - np.sin(stratum) * np.sin(turn),
                                         np.sin(stratum) * np.cos(turn) + np.cos(stratum) * np.sin(turn),
                                         _frames(normals))
-        return directions, self._unblocked(points, normals, directions, None, jittered=True)
+        return directions, self._unblocked(starts, directions, None, jittered=True)
 
     def _rotation(self, key: tuple[int, ...], count: int) -> np.ndarray:
         """(count, 2) the rotations of the sky's strata (``_open_sky``) at the points of the block
@@ -564,32 +570,28 @@ class DirectLighting:
         their ``look`` (0: the first directions)."""
         return streams.generator(self.seed, streams.SKY_DIRECTIONS, *key, look)
 
-    def _unblocked(self, points, normals, offsets, reach, *, jittered: bool) -> np.ndarray:
-        """(m, s) what gets through along each of the s rays from each point (m, 3) along
-        ``offsets`` (m, s, 3): whether no surface blocks it, or the share of its light no surface
-        stops where some let light through (``Visibility.blocked_unit``); ``reach`` 1.0 up to the
-        offsets' ends, None to infinity (the offsets then unit directions); ``jittered``: the
-        offsets are drawn at random over the hemisphere (the sky's), not the same at every point (a
-        sun's, nearly so for a sun of a tiny angle) or aimed at one point (a point light's, nearly
-        so for a small radius). The rays start off the point's surface (``Visibility.lifted_unit``)
-        and RAY_EPSILON along themselves, as the gathers' do (``Visibility.nearest``): a point a hair
-        inside a solid then sees what they see."""
+    def _unblocked(self, starts, offsets, reach, *, jittered: bool) -> np.ndarray:
+        """(m, s) what gets through along each of the s rays from each of ``starts`` (m, 3), where
+        a point's rays leave its surface in unit space (``Visibility.lifted_unit``), along
+        ``offsets`` (m, s, 3) from the point: whether no surface blocks it, or the share of its
+        light no surface stops where some let light through (``Visibility.blocked_unit``);
+        ``reach`` 1.0 up to the offsets' ends, None to infinity (the offsets then unit directions);
+        ``jittered``: the offsets are drawn at random over the hemisphere (the sky's), not the same
+        at every point (a sun's, nearly so for a sun of a tiny angle) or aimed at one point (a
+        point light's, nearly so for a small radius)."""
         visibility = self.visibility
         shape = offsets.shape[:2]
         if offsets.size == 0:
             return np.ones(shape)
-        starts = visibility.lifted_unit(points, normals)  # (m, 3)
         if reach is None:  # beyond the scene: every surface is within 1 of the unit space's centre
             directions = np.asarray(offsets, np.float32)
             ray_reach = np.linalg.norm(starts, axis=1)[:, None] + 2.0
-            along = RAY_EPSILON * directions
         else:  # stop RAY_EPSILON short of the end, along the ray
             directions = np.asarray(offsets, np.float32) * np.float32(visibility.scale)
-            step = RAY_EPSILON / np.maximum(np.linalg.norm(directions, axis=2), np.finfo(np.float32).tiny)
-            ray_reach = reach - 2 * step
-            along = step[..., None] * directions
+            lengths = np.linalg.norm(directions, axis=2)
+            ray_reach = reach - RAY_EPSILON / np.maximum(lengths, np.finfo(np.float32).tiny)
         ray_starts, ray_reaches = np.empty((*shape, 3), np.float32), np.empty(shape, np.float32)
-        ray_starts[:], ray_reaches[:] = starts[:, None] + along, ray_reach
+        ray_starts[:], ray_reaches[:] = starts[:, None], ray_reach
         blocked = visibility.blocked_unit(ray_starts.reshape(-1, 3), directions.reshape(-1, 3), ray_reaches.reshape(-1),
                                           jittered=jittered)
         return _seen(blocked).reshape(shape)

@@ -47,9 +47,10 @@ def point_uniforms(seed: int, tag: int, index: int, points: np.ndarray, count: i
     """(k, count) numbers uniform in [0, 1) for each of ``points`` (k, 3), made from the bits of its
     coordinates, the bake's ``seed``, the use's ``tag`` and ``index`` by splitmix64 (Steele, Lea
     and Flood 2014): the same wherever, and with whatever other points, a point is asked, so that a
-    reading kept at a point equals one made afresh there (``transport.arriving``)."""
-    bits = np.ascontiguousarray(points, dtype=np.float64).reshape(len(points), -1).view(np.uint64)
-    state = np.full(len(points), _mixed((seed * _GOLDEN ^ tag << 32 ^ index) & _MASK), dtype=np.uint64)
+    reading kept at a point equals one made afresh there (``transport.arriving``). -0.0 is taken
+    as 0.0."""
+    bits = np.ascontiguousarray(np.asarray(points, dtype=np.float64) + 0.0).view(np.uint64)  # (k, 3)
+    state = np.full(len(points), _mixed(((seed * _GOLDEN) ^ (tag << 32) ^ index) & _MASK), dtype=np.uint64)
     for column in bits.T:
         state = _mix(state ^ column)
     numbers = [_mix(state + np.uint64(((draw + 1) * _GOLDEN) & _MASK)) for draw in range(count)]

@@ -166,9 +166,22 @@ def test_a_soft_lights_reading_at_a_point_is_the_same_whatever_other_points_are_
     every = lighting.light_factors_at(points, normals)
     reversed_order = lighting.light_factors_at(points[::-1], normals[::-1])[::-1]
     some = np.arange(700, 1900, 3)
-    assert np.ptp(every[:, :, 0], axis=0).min() > 0.01  # each light's shadow has a penumbra here
+    share = every[:, :, 0] / every[:, :, 0].max(axis=0)
+    assert (((share > 0.05) & (share < 0.95)).sum(axis=0) > 20).all()  # each light's penumbra crosses these points
     np.testing.assert_array_equal(reversed_order, every)
     np.testing.assert_array_equal(lighting.light_factors_at(points[some], normals[some]), every[some])
+
+
+def test_points_that_face_away_from_every_soft_light_read_none_of_it():
+    """A block whose points all face away from a sun of an angle and a point light of a radius has
+    no point to sample them from (the rotations made from the points then had none to make, and
+    raised)."""
+    plate = quad([-0.3, -0.3, 0.3], [0, 0.6, 0], [0.6, 0, 0])
+    lights = (PointLight([0.2, 0.1, 1.0], [50.0] * 3, radius=0.3), SunLight([0.3, 0.2, -1.0], [2.0] * 3, angle=0.2))
+    lighting = DirectLighting(lights, np.zeros(3), Visibility(plate[0][plate[1]]), 16, 0)
+    points = np.stack([np.linspace(-1, 1, 5), np.zeros(5), np.zeros(5)], axis=1)
+    factors, _ = lighting.sampled_factors_at(points, np.tile([0.0, 0, -1], (5, 1)), lambda _done: None)
+    assert factors.shape == (5, 2, 3) and not factors.any()
 
 
 def test_lighting_only_is_irradiance_over_pi_even_on_black_surfaces():
@@ -561,7 +574,9 @@ def test_a_point_a_hair_from_a_solid_leaning_over_it_reads_the_sky_it_sees():
     A ray along the normal now finds the wall and the rays start half-way to it
     (``Visibility.lifted_unit``). G = 1 - F(point -> prism), F exact (a convex solid's faces seen
     from outside do not hide one another): 0.1464. Over 16 points and 8 seeds the mean error is
-    held to 0.003 (measured 0.00005), each point's mean reading to 5 % of its G (measured 0.2 %)."""
+    held to 0.001 (measured 0.00005), each point's mean reading to 1 % of its G (measured 0.2 %;
+    one seed's spread 0.7 %). A surface nearer the point than LEAST_LIFT is not seen: that band
+    remains (its width a 32nd of the one mended)."""
     def prism(delta: float) -> np.ndarray:  # the triangle A, B, C of the xz plane from y = -1 to 1, facing out
         a, b, c = np.array([delta, 0.0]), np.array([delta - 1, 1.0]), np.array([delta + 1, 0.0])
         at = lambda p, y: [p[0], y, p[1]]  # noqa: E731
@@ -578,8 +593,8 @@ def test_a_point_a_hair_from_a_solid_leaning_over_it_reads_the_sky_it_sees():
     readings = np.array([DirectLighting((), np.ones(3), visibility, 16, seed).sampled_factors_at(
         points, normals, lambda _done: None)[0][:, 0, 0] for seed in range(8)])
     assert 0.1 < exact.min()
-    assert abs(np.mean(readings - exact)) < 0.003, np.mean(readings - exact)
-    np.testing.assert_allclose(readings.mean(axis=0), exact, rtol=0.05)
+    assert abs(np.mean(readings - exact)) < 0.001, np.mean(readings - exact)
+    np.testing.assert_allclose(readings.mean(axis=0), exact, rtol=0.01)
 
 
 def room_with_a_blind(spacing=0.025, depth=0.03) -> np.ndarray:
@@ -614,8 +629,9 @@ def test_the_sky_through_a_blind_is_read_without_beating_against_its_slats():
     normals = np.tile([-1.0, 0, 0], (count, 1))
     uv = np.random.default_rng(5).random((1, 1 << 20, 2))
     lighting = DirectLighting((), np.ones(3), visibility, 16, 0)
-    truth = np.array([lighting._unblocked(point[None], normal[None], cosine_directions(normal[None], uv), None,
-                                          jittered=False).mean() for point, normal in zip(points, normals)])
+    truth = np.array([lighting._unblocked(visibility.lifted_unit(point[None], normal[None]),
+                                          cosine_directions(normal[None], uv), None, jittered=False).mean()
+                      for point, normal in zip(points, normals)])
     readings = np.array([DirectLighting((), np.ones(3), visibility, 16, seed).sampled_factors_at(
         points, normals, lambda _done: None)[0][:, 0, 0] for seed in range(24)])
     spread = np.sqrt(readings.var(axis=0, ddof=1).mean()) / truth.mean()
