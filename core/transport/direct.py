@@ -225,8 +225,9 @@ class DirectLighting:
         return joined if outputs > 1 else joined[0]
 
     def _point_block(self, points, normals, key) -> tuple[np.ndarray, np.ndarray]:
-        smooth, noise = self._smooth(points, normals, key, outlined=True)
-        return self._sharp(points, normals, key) + smooth, noise[:, len(self.lights):]
+        starts = self.visibility.lifted_unit(points, normals)  # the lights' and the sky's rays alike
+        smooth, noise = self._smooth(points, normals, key, outlined=True, starts=starts)
+        return self._sharp(points, normals, key, starts=starts) + smooth, noise[:, len(self.lights):]
 
     def _patch_block(self, corners, normals, key) -> np.ndarray:
         rotation = streams.generator(self.seed, streams.PATCH_LIGHT_POINTS, *key).random((len(corners), 1, 2))
@@ -235,12 +236,16 @@ class DirectLighting:
         return sharp.reshape(len(corners), self.rays, *sharp.shape[1:]).mean(axis=1) + self._smooth(
             corners.mean(axis=1), normals, key, sky_rays=PATCH_SKY_RAYS_PER_RAY)[0]
 
-    def _sharp(self, points, normals, key: tuple[int, ...], paired: bool = False) -> np.ndarray:
+    def _sharp(self, points, normals, key: tuple[int, ...], paired: bool = False,
+               starts: np.ndarray | None = None) -> np.ndarray:
         """(m, S, 3) point, spot and sun lights at points: one shadow ray each to a point light
         or along a sun, ``rays`` to points of a light's disc or directions of a sun's cone (one
         each when ``paired``: the points are a patch's ``rays`` stratified samples, the i-th
-        paired with the i-th stratum of the light); none from a light that casts no shadow."""
+        paired with the i-th stratum of the light); none from a light that casts no shadow. The
+        rays leave from ``starts`` (``Visibility.lifted_unit``; None: made here, once)."""
         result = np.zeros((len(points), self.source_count, 3))
+        if starts is None and any(light.casts_shadow or isinstance(light, SpotLight) for light in self.lights):
+            starts = self.visibility.lifted_unit(points, normals)
         for index, light in enumerate(self.lights):
             if isinstance(light, SunLight):
                 cosine = -(normals @ light.direction)
@@ -249,11 +254,10 @@ class DirectLighting:
                     seen = 1.0
                 elif light.angle > 0:
                     samples = self._light_samples(lit, key, index, paired, points[lit])
-                    seen = self._seen_in_cone(points[lit], normals[lit], -light.direction, light.angle / 2, samples)
+                    seen = self._seen_in_cone(starts[lit], -light.direction, light.angle / 2, samples)
                 else:
                     towards = np.broadcast_to(-light.direction, (len(lit), 3))
-                    seen = self._unblocked(self.visibility.lifted_unit(points[lit], normals[lit]), towards[:, None], None,
-                                           jittered=False)[:, 0]
+                    seen = self._unblocked(starts[lit], towards[:, None], None, jittered=False)[:, 0]
                 result[lit, index] = (cosine[lit] * seen / math.pi)[:, None]
             elif isinstance(light, (PointLight, SpotLight)):
                 offset = light.position - points
@@ -271,12 +275,11 @@ class DirectLighting:
                 lit = np.flatnonzero(strength > 0)
                 if light.radius > 0 and (spot or light.casts_shadow):
                     samples = self._light_samples(lit, key, index, paired, points[lit])
-                    seen = self._seen_on_disc(points[lit], normals[lit], light, samples, paired)
+                    seen = self._seen_on_disc(points[lit], normals[lit], starts[lit], light, samples, paired)
                 elif not light.casts_shadow:
                     seen = 1.0
                 else:
-                    seen = self._unblocked(self.visibility.lifted_unit(points[lit], normals[lit]), offset[lit][:, None], 1.0,
-                                           jittered=False)[:, 0]
+                    seen = self._unblocked(starts[lit], offset[lit][:, None], 1.0, jittered=False)[:, 0]
                 result[lit, index] = (strength[lit] * seen / (4 * math.pi**2))[:, None]
         return result
 
@@ -295,7 +298,7 @@ class DirectLighting:
         rotation = streams.point_uniforms(self.seed, streams.POINT_TURNS, light, points, 2)[:, None]
         return (grid[None] + rotation) % 1.0
 
-    def _seen_on_disc(self, points, normals, light: PointLight | SpotLight, samples, paired: bool) -> np.ndarray:
+    def _seen_on_disc(self, points, normals, starts, light: PointLight | SpotLight, samples, paired: bool) -> np.ndarray:
         """(k,) the share each point gets of its unshaded light, over the samples (k, s, 2) of the
         disc of the light's radius about its position, facing the point: sum k v m / sum k, k the
         unoccluded kernel cos_point cos_disc / r^2 of each sample, v whether the point sees it (1
@@ -315,8 +318,7 @@ class DirectLighting:
         lengths2 = np.einsum("ksx,ksx->ks", offsets, offsets)
         kernel = (np.maximum(np.einsum("ksx,kx->ks", offsets, normals), 0.0)
                   * np.maximum(np.einsum("ksx,kx->ks", offsets, facing), 0.0) / (lengths2 * lengths2))
-        share = self._unblocked(self.visibility.lifted_unit(points, normals), offsets, 1.0, jittered=False) \
-            if light.casts_shadow \
+        share = self._unblocked(starts, offsets, 1.0, jittered=False) if light.casts_shadow \
             else np.ones(offsets.shape[:2])
         if isinstance(light, SpotLight):
             share = share * light.cone_mask(-offsets / np.sqrt(lengths2)[..., None])
@@ -325,28 +327,31 @@ class DirectLighting:
             total = np.maximum(np.einsum("kx,kx->k", normals, facing), 0.0) / (distance2 + light.radius ** 2)
         return np.divide((kernel * share).sum(axis=1), total, out=np.zeros(len(points)), where=total > 0)
 
-    def _seen_in_cone(self, points, normals, axis, half_angle, samples) -> np.ndarray:
+    def _seen_in_cone(self, starts, axis, half_angle, samples) -> np.ndarray:
         """(k,) the share of the directions (uniform in solid angle within ``half_angle`` of the
-        unit ``axis``, from the samples (k, s, 2)) along which a point sees no surface."""
+        unit ``axis``, from the samples (k, s, 2)) along which a point whose rays leave from
+        ``starts`` (k, 3) sees no surface."""
         tangent, bitangent = tangent_frames(np.broadcast_to(axis, (1, 3)))
         cos_theta = 1.0 - samples[..., 0] * (1.0 - math.cos(half_angle))
         sin_theta, phi = np.sqrt(np.maximum(1.0 - cos_theta ** 2, 0.0)), 2 * math.pi * samples[..., 1]
         directions = (cos_theta[..., None] * axis + (sin_theta * np.cos(phi))[..., None] * tangent[0]
                       + (sin_theta * np.sin(phi))[..., None] * bitangent[0])  # (k, s, 3)
-        return self._unblocked(self.visibility.lifted_unit(points, normals), directions, None, jittered=False).mean(axis=1)
+        return self._unblocked(starts, directions, None, jittered=False).mean(axis=1)
 
     def _smooth(self, points, normals, key: tuple[int, ...], outlined: bool = False,
-                sky_rays: int = SKY_RAYS_PER_RAY) -> tuple[np.ndarray, np.ndarray]:
+                sky_rays: int = SKY_RAYS_PER_RAY, starts: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(m, S, 3) area lights and the sky (from ``rays`` x ``sky_rays`` directions, drawn from the
         streams of the block's ``key``: ``_in_blocks``); ``outlined``, where a point sees the sky
         along its neighbours' open directions (``_sky_next_door``), the mean of OUTLINE_LOOKS looks
         along its outline (``_looked``); and (m, S, 3) the standard error of that mean, from the
-        looks' spread (zero elsewhere)."""
+        looks' spread (zero elsewhere). The sky's rays leave from ``starts`` (``Visibility.lifted_unit``;
+        None: made here)."""
         result = self._area_lights(points, normals)
         noise = np.zeros_like(result)
         if self.sky.any() or self.environment is not None:
             rotation = self._rotation(key, len(points))
-            starts = self.visibility.lifted_unit(points, normals)
+            if starts is None:
+                starts = self.visibility.lifted_unit(points, normals)
             directions, open_sky = self._open_sky(starts, normals, rotation, sky_rays)
             sky = np.zeros_like(result)
             each = self._each_direction(directions, open_sky)
