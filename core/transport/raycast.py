@@ -33,19 +33,22 @@ from .analytic import point_to_triangle
 # sampled from there with rays uniform in its solid angle, none skipped by the probes: the source
 # fills much of the point's view, and a blocker near the point (a moulding's lip) hides part of it
 # (the tops of a gallery under a large sky triangle: docs/notes/experiments.md, and "The emitters'
-# light at the nodes" for the solid angle). CLOSE_RAYS rays from the points asked about ``finely``
-# (a bake's nodes), CLOSE_PATCH_RAYS from the others (patches, whose light only feeds the bounces:
-# on Sponza the error at its corners the same, the shots' work 9 % less: "Fewer rays where they
+# light at the nodes" for the solid angle). CLOSE_RAYS rays, all cast; from the points asked about
+# ``finely`` (a bake's nodes, whose colours show the emitter's light), where those disagree (a
+# shadow's edge crosses the source), CLOSE_MIXED_RAYS other directions decide instead. The
+# patches' light only feeds the bounces: they keep the first CLOSE_RAYS ("Fewer rays where they
 # buy nothing").
 CLOSE_REACH = 0.75
-CLOSE_RAYS = 64
-CLOSE_PATCH_RAYS = 16
-# Farther off, an emitting patch is sampled with EMITTER_RAYS rays, all cast, from the points
-# asked about ``finely`` (a bake's nodes, whose colours show its direct light; the patches' light
-# only feeds the bounces): on Sponza, under its sky quad, the nodes' direct light from 4 rays per
-# piece was 1.3 % of the light from the exact, from 16 rays 0.7 % (docs/notes/experiments.md, "The
-# emitters' light at the nodes").
-EMITTER_RAYS = 16
+CLOSE_RAYS = 16
+CLOSE_MIXED_RAYS = 128
+# Farther off, the points asked about finely sample an emitting patch at EMITTER_RAYS stratified
+# points, all cast, and where those disagree at EMITTER_MIXED_RAYS others instead; the other
+# points keep the bake's rays per form factor. On Sponza, under its sky quad, the nodes' emitter
+# pairs cast alike (16 rays, 64 close by) read 2.54 / 2.70 % from path tracing (seeds 0 / 1),
+# with these 2.17 / 2.47 % for the shots' 0.8 s more (docs/notes/experiments.md, "The emitters'
+# shadows sampled where they fall").
+EMITTER_RAYS = 9
+EMITTER_MIXED_RAYS = 36
 
 
 def lattice(count: int) -> np.ndarray:
@@ -107,9 +110,9 @@ class RayCaster:
         (``probe_samples``: 4 of 16, 16 of 64) are cast first and the rest only where those
         disagree: about half the time of a bake, but a shadow edge that crosses a source between
         the probes is missed (a blocker's form factor 1 % off in tests/core/test_occlusion.py).
-        ``emitting`` (P,) bool: the patches sampled in their solid angle from close by (when
-        CLOSE_RAYS is more than ``rays``), and with EMITTER_RAYS from the points asked about
-        finely (when more than ``rays``)."""
+        ``emitting`` (P,) bool: the patches sampled in their solid angle from close by, and with
+        EMITTER_RAYS then EMITTER_MIXED_RAYS from the points asked about finely, each where its
+        most rays (CLOSE_MIXED_RAYS, EMITTER_MIXED_RAYS) are more than ``rays``."""
         self.corners = patch_corners
         self.normals = patch_normals
         self.owners = patch_owners
@@ -126,16 +129,18 @@ class RayCaster:
         emitting = np.zeros(len(patch_corners), dtype=bool) if emitting is None else emitting
         self._emitter_slot = np.full(len(patch_corners), -1)
         self._emitter_slot[emitting] = np.arange(np.count_nonzero(emitting))
-        self._close, self._fine = CLOSE_RAYS > rays, EMITTER_RAYS > rays
+        self._close, self._fine = CLOSE_MIXED_RAYS > rays, EMITTER_MIXED_RAYS > rays
         self._close_reach2 = (CLOSE_REACH * longest_edges(patch_corners)) ** 2
         close, fine = emitting & self._close, emitting & self._fine  # (none where their rays are not more)
-        shifts = _rotations(seed, streams.CLOSE_DIRECTIONS, np.count_nonzero(close))
-        # (E, CLOSE_RAYS or CLOSE_PATCH_RAYS, 2) per source, for ``solid_angle_directions``
-        self._close_uv, self._close_patch_uv = ((lattice(count)[None] + shifts) % 1.0
-                                                for count in (CLOSE_RAYS, CLOSE_PATCH_RAYS))
-        self._fine_samples = stratified_samples(unit_corners[fine], EMITTER_RAYS, _rotations(
-            seed, streams.EMITTER_SAMPLES, np.count_nonzero(fine))).astype(np.float32)
-        self._fine_disc = (patch_areas[fine] * visibility.scale**2 / (np.pi * EMITTER_RAYS)).astype(np.float32)
+        # (E, 1, 2) Cranley-Patterson rotations of each source's lattices in the unit square, for
+        # ``solid_angle_directions`` (``_close_uv``)
+        self._close_shifts = {count: _rotations(seed, tag, np.count_nonzero(close)) for count, tag in (
+            (CLOSE_RAYS, streams.CLOSE_DIRECTIONS), (CLOSE_MIXED_RAYS, streams.CLOSE_MIXED_DIRECTIONS))}
+        self._fine_samples = {count: stratified_samples(unit_corners[fine], count, _rotations(
+            seed, tag, np.count_nonzero(fine))).astype(np.float32) for count, tag in (
+            (EMITTER_RAYS, streams.EMITTER_SAMPLES), (EMITTER_MIXED_RAYS, streams.EMITTER_MIXED_SAMPLES))}
+        self._fine_disc = {count: (patch_areas[fine] * visibility.scale**2 / (np.pi * count)).astype(np.float32)
+                           for count in self._fine_samples}
         self._unit_probes = np.ascontiguousarray(self._unit_samples[:, self._probe])  # (P, probes, 3)
         # sources with another face in their plane over them (``contacts.coplanar_overlaps``)
         # need the first-hit rule below; for the others a ray stopped short of their plane tells
@@ -148,8 +153,8 @@ class RayCaster:
 
     @property
     def sample_bytes(self) -> int:
-        return (self._unit_samples.nbytes + self._unit_probes.nbytes + self._close_uv.nbytes
-                + self._close_patch_uv.nbytes + self._fine_samples.nbytes)
+        return (self._unit_samples.nbytes + self._unit_probes.nbytes
+                + sum(values.nbytes for values in (*self._close_shifts.values(), *self._fine_samples.values())))
 
     def grid_form_factors(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray,
                           finely: np.ndarray | None = None) -> np.ndarray:
@@ -181,7 +186,8 @@ class RayCaster:
         """(n,) form factors from points[receivers] (facing normals[receivers]) to patches
         ``sources``, pairwise; points (m, 3), normals (m, 3), receivers and sources (n,) int;
         ``finely`` (m,) bool: the points that read the emitting sources with EMITTER_RAYS rays,
-        and with CLOSE_RAYS close by (None: none)."""
+        and EMITTER_MIXED_RAYS where those disagree, close by with CLOSE_RAYS and CLOSE_MIXED_RAYS
+        (None: none)."""
         emitting = np.flatnonzero(self._emitter_slot[sources] >= 0)
         fine = emitting[:0] if finely is None else emitting[finely[receivers[emitting]]]
         close = emitting[:0]
@@ -227,23 +233,30 @@ class RayCaster:
         return result
 
     def _close_form_factors(self, points, normals, receivers, sources, finely) -> np.ndarray:
-        """(n,) form factors to emitting sources close to their points (CLOSE_REACH), from
-        their CLOSE_RAYS directions where ``finely`` (n,) bool, else their CLOSE_PATCH_RAYS
-        (``solid_angle_form_factors``)."""
-        result = np.empty(len(receivers))
-        slots = self._emitter_slot[sources]
-        for chosen, uv in ((finely, self._close_uv), (~finely, self._close_patch_uv)):
-            result[chosen] = self.solid_angle_form_factors(points, normals, receivers[chosen], sources[chosen],
-                                                           uv[slots[chosen]])
+        """(n,) form factors to emitting sources close to their points (CLOSE_REACH), from their
+        CLOSE_RAYS directions, and where ``finely`` (n,) bool and those disagree, from their
+        CLOSE_MIXED_RAYS directions instead (``solid_angle_form_factors``)."""
+        result, mixed = self.solid_angle_form_factors(points, normals, receivers, sources,
+                                                      self._close_uv(sources, CLOSE_RAYS), mixed=True)
+        again = np.flatnonzero(mixed & finely)
+        result[again] = self.solid_angle_form_factors(points, normals, receivers[again], sources[again],
+                                                      self._close_uv(sources[again], CLOSE_MIXED_RAYS))
         return result
 
+    def _close_uv(self, sources: np.ndarray, count: int) -> np.ndarray:
+        """(n, count, 2) the points of the unit square of each of the emitting ``sources`` (n,):
+        the rank-1 lattice of ``count`` rotated by the source's own shift."""
+        return (lattice(count)[None] + self._close_shifts[count][self._emitter_slot[sources]]) % 1.0
+
     def solid_angle_form_factors(self, points: np.ndarray, normals: np.ndarray, receivers: np.ndarray,
-                                 sources: np.ndarray, uv: np.ndarray) -> np.ndarray:
+                                 sources: np.ndarray, uv: np.ndarray, mixed: bool = False):
         """(n,) form factors from points[receivers] to patches ``sources`` (n,), pairwise, from
         S directions each uniform in the source's solid angle at the points ``uv`` (n, S, 2) of
         the unit square (``geometry.solid_angle_directions``), every one cast, each weighted by
-        its cosine at the point (the module's docstring)."""
+        its cosine at the point (the module's docstring); with ``mixed``, and (n,) bool: whether
+        the directions of weight disagree, some blocked and some not (``_disagree``)."""
         unoccluded = point_to_triangle(points[receivers], normals[receivers], self.corners[sources])
+        disagree = np.zeros(len(receivers), dtype=bool)
         lit = np.flatnonzero(unoccluded > 0)
         receivers, sources = receivers[lit], sources[lit]
         normal = self.visibility.to_unit_directions(normals[receivers])
@@ -260,19 +273,30 @@ class RayCaster:
         total = weight.sum(axis=1)
         seen = (weight * (1.0 - blocked)).sum(axis=1)  # blocked: bool, or the share see-through surfaces stop
         unoccluded[lit] *= np.where(total > 0, seen / np.where(total > 0, total, 1), 1.0)
+        if mixed:
+            disagree[lit] = _disagree(blocked, weight > 0)
+            return unoccluded, disagree
         return unoccluded
 
     def _fine_form_factors(self, points, normals, receivers, sources) -> np.ndarray:
-        """(n,) form factors to emitting sources from their EMITTER_RAYS samples, every one cast."""
+        """(n,) form factors to emitting sources from their EMITTER_RAYS samples, every one cast,
+        and where those disagree from their EMITTER_MIXED_RAYS samples instead."""
         normal = self.visibility.to_unit_directions(normals[receivers])
         origin = self.visibility.to_unit(points[receivers]) + RAY_EPSILON * normal
         unoccluded = point_to_triangle(points[receivers], normals[receivers], self.corners[sources])
         lit = np.flatnonzero(unoccluded > 0)
-        slot = self._emitter_slot[sources[lit]]
-        offset = self._fine_samples[slot] - origin[lit, None, :]
-        cos_source = self._cos_source(offset, sources[lit])
-        blocked = self._blocked(origin[lit], offset, cos_source, sources[lit])
-        unoccluded[lit] *= _weighted_share(offset, normal[lit], cos_source, blocked, self._fine_disc[slot])
+        slot = self._emitter_slot[sources]
+
+        def share(rows, count):
+            offset = self._fine_samples[count][slot[rows]] - origin[rows, None, :]
+            cos_source = self._cos_source(offset, sources[rows])
+            blocked = self._blocked(origin[rows], offset, cos_source, sources[rows])
+            return _weighted_share(offset, normal[rows], cos_source, blocked, self._fine_disc[count][slot[rows]])
+
+        seen, disagree = share(lit, EMITTER_RAYS)
+        again = np.flatnonzero(disagree)
+        seen[again] = share(lit[again], EMITTER_MIXED_RAYS)[0]
+        unoccluded[lit] *= seen
         return unoccluded
 
     def _seen_fraction(self, origin, normal, sources, probed) -> np.ndarray:
@@ -285,7 +309,7 @@ class RayCaster:
         if len(self._rest):
             rest = self._rest
             blocked[:, rest] = self._blocked(origin, offset[:, rest], cos_source[:, rest], sources)
-        return _weighted_share(offset, normal, cos_source, blocked, self._unit_disc[sources])
+        return _weighted_share(offset, normal, cos_source, blocked, self._unit_disc[sources])[0]
 
     def _cos_source(self, offset: np.ndarray, sources: np.ndarray) -> np.ndarray:
         """(k, s) cosine at the source times minus the distance, for ray offsets (k, s, 3)."""
@@ -345,10 +369,11 @@ def _rotations(seed: int, tag: int, count: int) -> np.ndarray:
     return streams.generator(seed, tag).random((count, 1, 2))
 
 
-def _weighted_share(offset, normal, cos_source, blocked, disc) -> np.ndarray:
+def _weighted_share(offset, normal, cos_source, blocked, disc) -> tuple[np.ndarray, np.ndarray]:
     """(k,) sum_s w_s v_s / sum_s w_s over the samples at ``offset`` (k, S, 3) from the points
     (facing ``normal`` (k, 3)), ``cos_source`` (k, S) the source's cosine times minus the
-    distance, ``blocked`` (k, S), ``disc`` (k,) the disc term of the weight."""
+    distance, ``blocked`` (k, S), ``disc`` (k,) the disc term of the weight; and (k,) bool whether
+    the samples of weight disagree (``_disagree``)."""
     distance2 = np.einsum("ksx,ksx->ks", offset, offset)
     cos_receiver = (offset @ normal[:, :, None])[..., 0]  # times distance
     weight = np.maximum(cos_receiver, 0) * np.maximum(-cos_source, 0)
@@ -356,8 +381,15 @@ def _weighted_share(offset, normal, cos_source, blocked, disc) -> np.ndarray:
     weight_sum = weight.sum(axis=1)
     weight[weight_sum <= 0] = 1.0  # no sample above both horizons: count them all alike
     weight_sum[weight_sum <= 0] = offset.shape[1]
+    disagree = _disagree(blocked, weight > 0)
     if blocked.dtype == bool:
         weight[blocked] = 0
     else:  # the shares of the light that see-through surfaces stop
         weight *= 1.0 - blocked
-    return weight.sum(axis=1) / weight_sum
+    return weight.sum(axis=1) / weight_sum, disagree
+
+
+def _disagree(blocked: np.ndarray, counted: np.ndarray) -> np.ndarray:
+    """(k,) bool: whether, of the samples ``counted`` (k, S) bool, some are blocked (wholly or in
+    part: ``blocked`` (k, S) bool, or the share see-through surfaces stop) and some not wholly."""
+    return ((blocked > 0) & counted).any(axis=1) & ((blocked < 1) & counted).any(axis=1)
