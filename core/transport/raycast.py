@@ -33,22 +33,27 @@ from .analytic import point_to_triangle
 # sampled from there with rays uniform in its solid angle, none skipped by the probes: the source
 # fills much of the point's view, and a blocker near the point (a moulding's lip) hides part of it
 # (the tops of a gallery under a large sky triangle: docs/notes/experiments.md, and "The emitters'
-# light at the nodes" for the solid angle). CLOSE_RAYS rays, all cast; from the points asked about
-# ``finely`` (a bake's nodes, whose colours show the emitter's light), where those disagree (a
-# shadow's edge crosses the source), CLOSE_MIXED_RAYS other directions decide instead. The
-# patches' light only feeds the bounces: they keep the first CLOSE_RAYS ("Fewer rays where they
-# buy nothing").
+# light at the nodes" for the solid angle). CLOSE_RAYS rays (or the bake's rays per form factor, if
+# more), all cast; from the points asked about ``finely`` (a bake's nodes, whose colours show the
+# emitter's light), where those disagree (a shadow's edge crosses the source), CLOSE_MIXED_RAYS
+# other directions (or the bake's rays, if more) decide instead. The patches' light only feeds the
+# bounces: they keep the first ("Fewer rays where they buy nothing").
 CLOSE_REACH = 0.75
 CLOSE_RAYS = 16
 CLOSE_MIXED_RAYS = 128
 # Farther off, the points asked about finely sample an emitting patch at EMITTER_RAYS stratified
-# points, all cast, and where those disagree at EMITTER_MIXED_RAYS others instead; the other
-# points keep the bake's rays per form factor. On Sponza, under its sky quad, the nodes' emitter
+# points, all cast, and where those disagree at EMITTER_MIXED_RAYS others instead, while the bake's
+# rays per form factor are fewer than EMITTER_MIXED_RAYS; the other points, and all from that many
+# rays on, keep the bake's rays per form factor (probed). On Sponza, under its sky quad, the nodes' emitter
 # pairs cast alike (16 rays, 64 close by) read 2.54 / 2.70 % from path tracing (seeds 0 / 1),
 # with these 2.17 / 2.47 % for the shots' 0.8 s more (docs/notes/experiments.md, "The emitters'
 # shadows sampled where they fall").
 EMITTER_RAYS = 9
 EMITTER_MIXED_RAYS = 36
+# The emitters' samples are cast at most CHUNK_RAYS at a time, about 180 bytes a ray: a block of
+# pairs (``formfactors.RAYS_PER_BLOCK`` of the bake's rays) whose pairs all disagree then holds no
+# more than its first rays did.
+CHUNK_RAYS = 1 << 18
 
 
 def lattice(count: int) -> np.ndarray:
@@ -111,8 +116,8 @@ class RayCaster:
         disagree: about half the time of a bake, but a shadow edge that crosses a source between
         the probes is missed (a blocker's form factor 1 % off in tests/core/test_occlusion.py).
         ``emitting`` (P,) bool: the patches sampled in their solid angle from close by, and with
-        EMITTER_RAYS then EMITTER_MIXED_RAYS from the points asked about finely, each where its
-        most rays (CLOSE_MIXED_RAYS, EMITTER_MIXED_RAYS) are more than ``rays``."""
+        EMITTER_RAYS then EMITTER_MIXED_RAYS from the points asked about finely while
+        EMITTER_MIXED_RAYS is more than ``rays``."""
         self.corners = patch_corners
         self.normals = patch_normals
         self.owners = patch_owners
@@ -129,13 +134,14 @@ class RayCaster:
         emitting = np.zeros(len(patch_corners), dtype=bool) if emitting is None else emitting
         self._emitter_slot = np.full(len(patch_corners), -1)
         self._emitter_slot[emitting] = np.arange(np.count_nonzero(emitting))
-        self._close, self._fine = CLOSE_MIXED_RAYS > rays, EMITTER_MIXED_RAYS > rays
+        self._fine = EMITTER_MIXED_RAYS > rays
         self._close_reach2 = (CLOSE_REACH * longest_edges(patch_corners)) ** 2
-        close, fine = emitting & self._close, emitting & self._fine  # (none where their rays are not more)
-        # (E, 1, 2) Cranley-Patterson rotations of each source's lattices in the unit square, for
-        # ``solid_angle_directions`` (``_close_uv``)
-        self._close_shifts = {count: _rotations(seed, tag, np.count_nonzero(close)) for count, tag in (
-            (CLOSE_RAYS, streams.CLOSE_DIRECTIONS), (CLOSE_MIXED_RAYS, streams.CLOSE_MIXED_DIRECTIONS))}
+        fine = emitting & self._fine  # (none from EMITTER_MIXED_RAYS rays on)
+        # the close sources' directions, first and where those disagree: (E, 1, 2) Cranley-Patterson
+        # rotations of each one's lattice of the unit square (``_close_uv``)
+        self._close_rays = (max(CLOSE_RAYS, rays), max(CLOSE_MIXED_RAYS, rays))
+        self._close_shifts = [_rotations(seed, tag, np.count_nonzero(emitting))
+                              for tag in (streams.CLOSE_DIRECTIONS, streams.CLOSE_MIXED_DIRECTIONS)]
         self._fine_samples = {count: stratified_samples(unit_corners[fine], count, _rotations(
             seed, tag, np.count_nonzero(fine))).astype(np.float32) for count, tag in (
             (EMITTER_RAYS, streams.EMITTER_SAMPLES), (EMITTER_MIXED_RAYS, streams.EMITTER_MIXED_SAMPLES))}
@@ -154,7 +160,7 @@ class RayCaster:
     @property
     def sample_bytes(self) -> int:
         return (self._unit_samples.nbytes + self._unit_probes.nbytes
-                + sum(values.nbytes for values in (*self._close_shifts.values(), *self._fine_samples.values())))
+                + sum(values.nbytes for values in (*self._close_shifts, *self._fine_samples.values())))
 
     def grid_form_factors(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray,
                           finely: np.ndarray | None = None) -> np.ndarray:
@@ -186,12 +192,12 @@ class RayCaster:
         """(n,) form factors from points[receivers] (facing normals[receivers]) to patches
         ``sources``, pairwise; points (m, 3), normals (m, 3), receivers and sources (n,) int;
         ``finely`` (m,) bool: the points that read the emitting sources with EMITTER_RAYS rays,
-        and EMITTER_MIXED_RAYS where those disagree, close by with CLOSE_RAYS and CLOSE_MIXED_RAYS
-        (None: none)."""
+        and EMITTER_MIXED_RAYS where those disagree, close by with CLOSE_MIXED_RAYS where the
+        first disagree (None: none)."""
         emitting = np.flatnonzero(self._emitter_slot[sources] >= 0)
         fine = emitting[:0] if finely is None else emitting[finely[receivers[emitting]]]
         close = emitting[:0]
-        if self._close and len(emitting):
+        if len(emitting):
             offset = points[receivers[emitting]] - self.corners[sources[emitting]].mean(axis=1)
             close = emitting[np.einsum("kx,kx->k", offset, offset) < self._close_reach2[sources[emitting]]]
         fine = np.setdiff1d(fine, close, assume_unique=True) if self._fine else emitting[:0]
@@ -234,19 +240,26 @@ class RayCaster:
 
     def _close_form_factors(self, points, normals, receivers, sources, finely) -> np.ndarray:
         """(n,) form factors to emitting sources close to their points (CLOSE_REACH), from their
-        CLOSE_RAYS directions, and where ``finely`` (n,) bool and those disagree, from their
-        CLOSE_MIXED_RAYS directions instead (``solid_angle_form_factors``)."""
-        result, mixed = self.solid_angle_form_factors(points, normals, receivers, sources,
-                                                      self._close_uv(sources, CLOSE_RAYS), mixed=True)
-        again = np.flatnonzero(mixed & finely)
-        result[again] = self.solid_angle_form_factors(points, normals, receivers[again], sources[again],
-                                                      self._close_uv(sources[again], CLOSE_MIXED_RAYS))
+        first directions (``_close_rays``), and where ``finely`` (n,) bool and those disagree,
+        from their other directions instead (``solid_angle_form_factors``)."""
+        first, mixed = self._close_rays
+        result, disagree = np.empty(len(receivers)), np.zeros(len(receivers), dtype=bool)
+        for rows in _chunks(len(receivers), first):
+            result[rows], disagree[rows] = self.solid_angle_form_factors(
+                points, normals, receivers[rows], sources[rows], self._close_uv(sources[rows], 0), mixed=True)
+        again = np.flatnonzero(disagree & finely) if mixed > first else np.zeros(0, dtype=np.int64)
+        for rows in _chunks(len(again), mixed):
+            chosen = again[rows]
+            result[chosen] = self.solid_angle_form_factors(points, normals, receivers[chosen], sources[chosen],
+                                                           self._close_uv(sources[chosen], 1))
         return result
 
-    def _close_uv(self, sources: np.ndarray, count: int) -> np.ndarray:
-        """(n, count, 2) the points of the unit square of each of the emitting ``sources`` (n,):
-        the rank-1 lattice of ``count`` rotated by the source's own shift."""
-        return (lattice(count)[None] + self._close_shifts[count][self._emitter_slot[sources]]) % 1.0
+    def _close_uv(self, sources: np.ndarray, which: int) -> np.ndarray:
+        """(n, S, 2) points of the unit square for each of the emitting ``sources`` (n,): the
+        rank-1 lattice of the first (``which`` 0) or the other (1) directions' count
+        (``_close_rays``), rotated by the source's own shift."""
+        shifts = self._close_shifts[which][self._emitter_slot[sources]]
+        return (lattice(self._close_rays[which])[None] + shifts) % 1.0
 
     def solid_angle_form_factors(self, points: np.ndarray, normals: np.ndarray, receivers: np.ndarray,
                                  sources: np.ndarray, uv: np.ndarray, mixed: bool = False):
@@ -254,7 +267,7 @@ class RayCaster:
         S directions each uniform in the source's solid angle at the points ``uv`` (n, S, 2) of
         the unit square (``geometry.solid_angle_directions``), every one cast, each weighted by
         its cosine at the point (the module's docstring); with ``mixed``, and (n,) bool: whether
-        the directions of weight disagree, some blocked and some not (``_disagree``)."""
+        the directions of weight disagree (``_disagree``)."""
         unoccluded = point_to_triangle(points[receivers], normals[receivers], self.corners[sources])
         disagree = np.zeros(len(receivers), dtype=bool)
         lit = np.flatnonzero(unoccluded > 0)
@@ -291,11 +304,15 @@ class RayCaster:
             offset = self._fine_samples[count][slot[rows]] - origin[rows, None, :]
             cos_source = self._cos_source(offset, sources[rows])
             blocked = self._blocked(origin[rows], offset, cos_source, sources[rows])
-            return _weighted_share(offset, normal[rows], cos_source, blocked, self._fine_disc[count][slot[rows]])
+            return _weighted_share(offset, normal[rows], cos_source, blocked, self._fine_disc[count][slot[rows]],
+                                   disagreeing=True)
 
-        seen, disagree = share(lit, EMITTER_RAYS)
+        seen, disagree = np.empty(len(lit)), np.zeros(len(lit), dtype=bool)
+        for rows in _chunks(len(lit), EMITTER_RAYS):
+            seen[rows], disagree[rows] = share(lit[rows], EMITTER_RAYS)
         again = np.flatnonzero(disagree)
-        seen[again] = share(lit[again], EMITTER_MIXED_RAYS)[0]
+        for rows in _chunks(len(again), EMITTER_MIXED_RAYS):
+            seen[again[rows]] = share(lit[again[rows]], EMITTER_MIXED_RAYS)[0]
         unoccluded[lit] *= seen
         return unoccluded
 
@@ -309,7 +326,7 @@ class RayCaster:
         if len(self._rest):
             rest = self._rest
             blocked[:, rest] = self._blocked(origin, offset[:, rest], cos_source[:, rest], sources)
-        return _weighted_share(offset, normal, cos_source, blocked, self._unit_disc[sources])[0]
+        return _weighted_share(offset, normal, cos_source, blocked, self._unit_disc[sources])
 
     def _cos_source(self, offset: np.ndarray, sources: np.ndarray) -> np.ndarray:
         """(k, s) cosine at the source times minus the distance, for ray offsets (k, s, 3)."""
@@ -369,11 +386,11 @@ def _rotations(seed: int, tag: int, count: int) -> np.ndarray:
     return streams.generator(seed, tag).random((count, 1, 2))
 
 
-def _weighted_share(offset, normal, cos_source, blocked, disc) -> tuple[np.ndarray, np.ndarray]:
+def _weighted_share(offset, normal, cos_source, blocked, disc, disagreeing: bool = False):
     """(k,) sum_s w_s v_s / sum_s w_s over the samples at ``offset`` (k, S, 3) from the points
     (facing ``normal`` (k, 3)), ``cos_source`` (k, S) the source's cosine times minus the
-    distance, ``blocked`` (k, S), ``disc`` (k,) the disc term of the weight; and (k,) bool whether
-    the samples of weight disagree (``_disagree``)."""
+    distance, ``blocked`` (k, S), ``disc`` (k,) the disc term of the weight; with
+    ``disagreeing``, and (k,) bool whether the samples of weight disagree (``_disagree``)."""
     distance2 = np.einsum("ksx,ksx->ks", offset, offset)
     cos_receiver = (offset @ normal[:, :, None])[..., 0]  # times distance
     weight = np.maximum(cos_receiver, 0) * np.maximum(-cos_source, 0)
@@ -381,15 +398,24 @@ def _weighted_share(offset, normal, cos_source, blocked, disc) -> tuple[np.ndarr
     weight_sum = weight.sum(axis=1)
     weight[weight_sum <= 0] = 1.0  # no sample above both horizons: count them all alike
     weight_sum[weight_sum <= 0] = offset.shape[1]
-    disagree = _disagree(blocked, weight > 0)
+    disagree = _disagree(blocked, weight > 0) if disagreeing else None
     if blocked.dtype == bool:
         weight[blocked] = 0
     else:  # the shares of the light that see-through surfaces stop
         weight *= 1.0 - blocked
-    return weight.sum(axis=1) / weight_sum, disagree
+    share = weight.sum(axis=1) / weight_sum
+    return (share, disagree) if disagreeing else share
 
 
 def _disagree(blocked: np.ndarray, counted: np.ndarray) -> np.ndarray:
-    """(k,) bool: whether, of the samples ``counted`` (k, S) bool, some are blocked (wholly or in
-    part: ``blocked`` (k, S) bool, or the share see-through surfaces stop) and some not wholly."""
-    return ((blocked > 0) & counted).any(axis=1) & ((blocked < 1) & counted).any(axis=1)
+    """(k,) bool: whether the samples ``counted`` (k, S) bool are blocked unequally: some blocked
+    and some not (``blocked`` (k, S) bool), or stopped in different shares by see-through surfaces
+    (float; one even cover stops all alike)."""
+    shares = blocked.astype(np.float32)
+    return np.where(counted, shares, -1.0).max(axis=1) > np.where(counted, shares, 2.0).min(axis=1)
+
+
+def _chunks(count: int, rays: int) -> list[slice]:
+    """Consecutive slices of ``count`` pairs of ``rays`` rays each, at most CHUNK_RAYS rays a slice."""
+    size = max(1, CHUNK_RAYS // rays)
+    return [slice(start, start + size) for start in range(0, count, size)]
