@@ -131,7 +131,10 @@ class DirectLighting:
             areas, normals = areas_and_normals(pieces)
             # no RayCaster where ``_area_lights`` reads the light without one (no shadow, or a spread)
             ray_cast = light.casts_shadow and light.spread >= math.pi
-            caster = RayCaster(pieces, normals, areas, visibility, rays, seed + 1 + index) if ray_cast else None
+            # read as an emitting patch is (``raycast``): in its solid angle close by, and at the
+            # points asked about finely with more rays where the first ones disagree
+            caster = RayCaster(pieces, normals, areas, visibility, rays, seed + 1 + index,
+                               emitting=np.ones(len(pieces), dtype=bool)) if ray_cast else None
             self._area.append((index, pieces, caster))
 
     @property
@@ -179,8 +182,8 @@ class DirectLighting:
         if not self.lights:
             return np.zeros((len(points), 0, 3))
         factors = self._in_blocks(points, normals, lambda block, block_normals, key: self._sharp(
-            block, block_normals, key) + self._area_lights(block, block_normals), lambda _fraction: None,
-                                  streams.NODES)
+            block, block_normals, key) + self._area_lights(block, block_normals, finely=True),
+                                  lambda _fraction: None, streams.NODES)
         return factors[:, : len(self.lights)]
 
     @property
@@ -226,7 +229,7 @@ class DirectLighting:
 
     def _point_block(self, points, normals, key) -> tuple[np.ndarray, np.ndarray]:
         starts = self.visibility.lifted_unit(points, normals)  # the lights' and the sky's rays alike
-        smooth, noise = self._smooth(points, normals, key, outlined=True, starts=starts)
+        smooth, noise = self._smooth(points, normals, key, outlined=True, starts=starts, finely=True)
         return self._sharp(points, normals, key, starts=starts) + smooth, noise[:, len(self.lights):]
 
     def _patch_block(self, corners, normals, key) -> np.ndarray:
@@ -339,14 +342,16 @@ class DirectLighting:
         return self._unblocked(starts, directions, None, jittered=False).mean(axis=1)
 
     def _smooth(self, points, normals, key: tuple[int, ...], outlined: bool = False,
-                sky_rays: int = SKY_RAYS_PER_RAY, starts: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(m, S, 3) area lights and the sky (from ``rays`` x ``sky_rays`` directions, drawn from the
-        streams of the block's ``key``: ``_in_blocks``); ``outlined``, where a point sees the sky
+                sky_rays: int = SKY_RAYS_PER_RAY, starts: np.ndarray | None = None,
+                finely: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """(m, S, 3) area lights (read ``finely`` or not: ``_area_lights``) and the sky (from ``rays``
+        x ``sky_rays`` directions, drawn from the streams of the block's ``key``: ``_in_blocks``);
+        ``outlined``, where a point sees the sky
         along its neighbours' open directions (``_sky_next_door``), the mean of OUTLINE_LOOKS looks
         along its outline (``_looked``); and (m, S, 3) the standard error of that mean, from the
         looks' spread (zero elsewhere). The sky's rays leave from ``starts`` (``Visibility.lifted_unit``;
         None: made here)."""
-        result = self._area_lights(points, normals)
+        result = self._area_lights(points, normals, finely)
         noise = np.zeros_like(result)
         if self.sky.any() or self.environment is not None:
             rotation = self._rotation(key, len(points))
@@ -442,10 +447,12 @@ class DirectLighting:
             lights.append(through[..., None] * self.environment.at(directions))
         return lights
 
-    def _area_lights(self, points, normals) -> np.ndarray:
-        """(m, S, 3) area lights at points, per unit of power: kernel-weighted shadow rays to
-        stratified samples (the exact unoccluded form factors for a light that casts no shadow;
-        ``_spread_light`` for a light of a spread), times 1 / (pi A)."""
+    def _area_lights(self, points, normals, finely: bool = False) -> np.ndarray:
+        """(m, S, 3) area lights at points, per unit of power: each piece's form factor by shadow
+        rays as an emitting patch's (``raycast.RayCaster``: in its solid angle close by; ``finely``,
+        as the nodes read, with more rays where the first ones disagree), the exact unoccluded
+        form factors for a light that casts no shadow, ``_spread_light`` for a light of a spread;
+        times 1 / (pi A)."""
         result = np.zeros((len(points), self.source_count, 3))
         count = len(points)
         for index, pieces, caster in self._area:
@@ -454,7 +461,8 @@ class DirectLighting:
             if light.spread < math.pi:
                 factor = self._spread_light(points, normals, light, pieces, index)
             elif caster is not None:
-                factor = caster.form_factors(points, normals, receivers, pieces_of).reshape(count, sources).sum(axis=1)
+                factor = caster.form_factors(points, normals, receivers, pieces_of, np.full(count, finely)).reshape(
+                    count, sources).sum(axis=1)
             else:
                 factor = point_to_triangle(points[receivers], normals[receivers],
                                            pieces[pieces_of]).reshape(count, sources).sum(axis=1)
