@@ -30,7 +30,8 @@ exact while the light is above the point's horizon. Either is seen from a point 
 radius r facing it: its visibility is the share of ``rays`` stratified points of that disc seen,
 each weighed by its unoccluded kernel, and a spot's cone mask is taken along each point's ray, as
 Cycles does (so a radius softens the cone's edge); a sun of angular diameter a likewise, over
-``rays`` directions uniform in the cone of half-angle a / 2.
+``rays`` directions uniform in the cone of half-angle a / 2. At a point where those disagree (a
+penumbra), MIXED_SAMPLES_PER_RAY times as many others are read instead.
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ from ..scene.lights import AreaLight, Environment, PointLight, SpotLight, SunLig
 from ..util import parallel, streams
 from ..util.geometry import areas_and_normals, orthonormal_frames, subdivide, tangent_frames
 from .analytic import point_to_triangle
-from .raycast import RayCaster, lattice, stratified_samples
+from .raycast import RayCaster, lattice, stratified_samples, unequally_blocked
 
 # Evaluation points per block of work (each with up to a few thousand rays).
 POINTS_PER_BLOCK = 1024
@@ -93,6 +94,11 @@ NEXT_DOOR_POINTS = 3
 # edge, where the disc is cut); docs/notes/experiments.md, "An area light's Spread".
 SPREAD_SAMPLES_PER_RAY = 4
 NARROW = 8
+# A soft light (a point or spot light of a radius, a sun of an angle) is read at a point (not a
+# patch's paired points) from ``rays`` stratified samples; where those disagree (some blocked, some
+# not: a penumbra), from MIXED_SAMPLES_PER_RAY x ``rays`` others instead, as the nodes read an
+# emitting patch (``raycast.EMITTER_MIXED_RAYS``).
+MIXED_SAMPLES_PER_RAY = 4
 # Samples (points x pieces x samples of each) of lights of a spread taken at once: bounds a block's
 # memory (some 150 bytes each).
 SPREAD_SAMPLES = 1 << 18
@@ -256,8 +262,8 @@ class DirectLighting:
                 if not light.casts_shadow:
                     seen = 1.0
                 elif light.angle > 0:
-                    samples = self._light_samples(lit, key, index, paired, points[lit])
-                    seen = self._seen_in_cone(starts[lit], -light.direction, light.angle / 2, samples)
+                    seen = self._soft(lit, key, index, paired, points, lambda rows, samples: self._seen_in_cone(
+                        starts[rows], -light.direction, light.angle / 2, samples))
                 else:
                     towards = np.broadcast_to(-light.direction, (len(lit), 3))
                     seen = self._unblocked(starts[lit], towards[:, None], None, jittered=False)[:, 0]
@@ -277,8 +283,8 @@ class DirectLighting:
                     strength *= light.cone_mask(-towards)
                 lit = np.flatnonzero(strength > 0)
                 if light.radius > 0 and (spot or light.casts_shadow):
-                    samples = self._light_samples(lit, key, index, paired, points[lit])
-                    seen = self._seen_on_disc(points[lit], normals[lit], starts[lit], light, samples, paired)
+                    seen = self._soft(lit, key, index, paired, points, lambda rows, samples: self._seen_on_disc(
+                        points[rows], normals[rows], starts[rows], light, samples, paired))
                 elif not light.casts_shadow:
                     seen = 1.0
                 else:
@@ -286,13 +292,30 @@ class DirectLighting:
                 result[lit, index] = (strength[lit] * seen / (4 * math.pi**2))[:, None]
         return result
 
+    def _soft(self, lit: np.ndarray, key: tuple[int, ...], light: int, paired: bool, points: np.ndarray,
+              seen: Callable) -> np.ndarray:
+        """(k,) the share of soft light ``light`` that each of the points ``lit`` (k,) of a block gets:
+        ``seen(rows, samples)`` ((k',) shares, and (k',) bool whether the samples disagree) from
+        ``_light_samples``, and where those disagree at a point (not ``paired``), from
+        MIXED_SAMPLES_PER_RAY times as many others instead."""
+        share, disagree = seen(lit, self._light_samples(lit, key, light, paired, points[lit]))
+        again = np.flatnonzero(disagree) if not paired else np.zeros(0, dtype=np.int64)
+        if len(again):
+            rows = lit[again]
+            share[again] = seen(rows, self._light_samples(rows, key, light, paired, points[rows], mixed=True))[0]
+        return share
+
     def _light_samples(self, chosen: np.ndarray, key: tuple[int, ...], light: int, paired: bool,
-                       points: np.ndarray) -> np.ndarray:
+                       points: np.ndarray, mixed: bool = False) -> np.ndarray:
         """(k, s, 2) stratified points of the unit square for the ``points`` (k, 3) ``chosen`` (k,)
         of a block: s = ``rays`` strata, each point's rotated (Cranley-Patterson) by numbers made
         from the point itself (``streams.point_uniforms``: a point's light is the same in whatever
         block it is asked); paired, s = 1, the stratum of each point's place among its patch's
-        ``rays`` samples, the patch's rotation drawn from the block's stream."""
+        ``rays`` samples, the patch's rotation drawn from the block's stream; ``mixed``, s =
+        MIXED_SAMPLES_PER_RAY x ``rays`` others (``_soft``)."""
+        if mixed:
+            rotation = streams.point_uniforms(self.seed, streams.POINT_MIXED_TURNS, light, points, 2)[:, None]
+            return (_strata(MIXED_SAMPLES_PER_RAY * self.rays)[None] + rotation) % 1.0
         grid = _strata(self.rays)
         if paired:
             rng = streams.generator(self.seed, streams.LIGHT_SAMPLES, *key, light)
@@ -301,7 +324,8 @@ class DirectLighting:
         rotation = streams.point_uniforms(self.seed, streams.POINT_TURNS, light, points, 2)[:, None]
         return (grid[None] + rotation) % 1.0
 
-    def _seen_on_disc(self, points, normals, starts, light: PointLight | SpotLight, samples, paired: bool) -> np.ndarray:
+    def _seen_on_disc(self, points, normals, starts, light: PointLight | SpotLight, samples,
+                      paired: bool) -> tuple[np.ndarray, np.ndarray]:
         """(k,) the share each point gets of its unshaded light, over the samples (k, s, 2) of the
         disc of the light's radius about its position, facing the point: sum k v m / sum k, k the
         unoccluded kernel cos_point cos_disc / r^2 of each sample, v whether the point sees it (1
@@ -310,7 +334,8 @@ class DirectLighting:
         softens its cone's edge; 1 for a point light). ``paired`` (one sample a point, as a
         patch's points take a stratum each): k v m over the disc's mean kernel, cos theta / (d^2
         + R^2) (its projected solid angle pi R^2 cos theta / (d^2 + R^2) over its area), whose
-        mean over the strata is the same share, unbiased."""
+        mean over the strata is the same share, unbiased. And (k,) bool: whether the samples of
+        some kernel disagree (``raycast.unequally_blocked``)."""
         towards = light.position - points
         distance2 = np.einsum("kx,kx->k", towards, towards)
         facing = towards / np.maximum(np.sqrt(distance2), 1e-300)[:, None]
@@ -323,23 +348,25 @@ class DirectLighting:
                   * np.maximum(np.einsum("ksx,kx->ks", offsets, facing), 0.0) / (lengths2 * lengths2))
         share = self._unblocked(starts, offsets, 1.0, jittered=False) if light.casts_shadow \
             else np.ones(offsets.shape[:2])
+        disagree = unequally_blocked(share, kernel > 0)  # the shadow's, not the cone's edge
         if isinstance(light, SpotLight):
             share = share * light.cone_mask(-offsets / np.sqrt(lengths2)[..., None])
         total = kernel.sum(axis=1)
         if paired:
             total = np.maximum(np.einsum("kx,kx->k", normals, facing), 0.0) / (distance2 + light.radius ** 2)
-        return np.divide((kernel * share).sum(axis=1), total, out=np.zeros(len(points)), where=total > 0)
+        return np.divide((kernel * share).sum(axis=1), total, out=np.zeros(len(points)), where=total > 0), disagree
 
-    def _seen_in_cone(self, starts, axis, half_angle, samples) -> np.ndarray:
+    def _seen_in_cone(self, starts, axis, half_angle, samples) -> tuple[np.ndarray, np.ndarray]:
         """(k,) the share of the directions (uniform in solid angle within ``half_angle`` of the
         unit ``axis``, from the samples (k, s, 2)) along which a point whose rays leave from
-        ``starts`` (k, 3) sees no surface."""
+        ``starts`` (k, 3) sees no surface, and (k,) bool whether they disagree."""
         tangent, bitangent = tangent_frames(np.broadcast_to(axis, (1, 3)))
         cos_theta = 1.0 - samples[..., 0] * (1.0 - math.cos(half_angle))
         sin_theta, phi = np.sqrt(np.maximum(1.0 - cos_theta ** 2, 0.0)), 2 * math.pi * samples[..., 1]
         directions = (cos_theta[..., None] * axis + (sin_theta * np.cos(phi))[..., None] * tangent[0]
                       + (sin_theta * np.sin(phi))[..., None] * bitangent[0])  # (k, s, 3)
-        return self._unblocked(starts, directions, None, jittered=False).mean(axis=1)
+        share = self._unblocked(starts, directions, None, jittered=False)
+        return share.mean(axis=1), unequally_blocked(share, np.ones(share.shape, dtype=bool))
 
     def _smooth(self, points, normals, key: tuple[int, ...], outlined: bool = False,
                 sky_rays: int = SKY_RAYS_PER_RAY, starts: np.ndarray | None = None,

@@ -267,7 +267,7 @@ class RayCaster:
         S directions each uniform in the source's solid angle at the points ``uv`` (n, S, 2) of
         the unit square (``geometry.solid_angle_directions``), every one cast, each weighted by
         its cosine at the point (the module's docstring); with ``mixed``, and (n,) bool: whether
-        the directions of weight disagree (``_disagree``)."""
+        the directions of weight disagree (``unequally_blocked``)."""
         unoccluded = point_to_triangle(points[receivers], normals[receivers], self.corners[sources])
         disagree = np.zeros(len(receivers), dtype=bool)
         lit = np.flatnonzero(unoccluded > 0)
@@ -287,7 +287,7 @@ class RayCaster:
         seen = (weight * (1.0 - blocked)).sum(axis=1)  # blocked: bool, or the share see-through surfaces stop
         unoccluded[lit] *= np.where(total > 0, seen / np.where(total > 0, total, 1), 1.0)
         if mixed:
-            disagree[lit] = _disagree(blocked, weight > 0)
+            disagree[lit] = unequally_blocked(blocked, weight > 0)
             return unoccluded, disagree
         return unoccluded
 
@@ -390,7 +390,7 @@ def _weighted_share(offset, normal, cos_source, blocked, disc, disagreeing: bool
     """(k,) sum_s w_s v_s / sum_s w_s over the samples at ``offset`` (k, S, 3) from the points
     (facing ``normal`` (k, 3)), ``cos_source`` (k, S) the source's cosine times minus the
     distance, ``blocked`` (k, S), ``disc`` (k,) the disc term of the weight; with
-    ``disagreeing``, and (k,) bool whether the samples of weight disagree (``_disagree``)."""
+    ``disagreeing``, and (k,) bool whether the samples of weight disagree (``unequally_blocked``)."""
     distance2 = np.einsum("ksx,ksx->ks", offset, offset)
     cos_receiver = (offset @ normal[:, :, None])[..., 0]  # times distance
     weight = np.maximum(cos_receiver, 0) * np.maximum(-cos_source, 0)
@@ -398,7 +398,7 @@ def _weighted_share(offset, normal, cos_source, blocked, disc, disagreeing: bool
     weight_sum = weight.sum(axis=1)
     weight[weight_sum <= 0] = 1.0  # no sample above both horizons: count them all alike
     weight_sum[weight_sum <= 0] = offset.shape[1]
-    disagree = _disagree(blocked, weight > 0) if disagreeing else None
+    disagree = unequally_blocked(blocked, weight > 0) if disagreeing else None
     if blocked.dtype == bool:
         weight[blocked] = 0
     else:  # the shares of the light that see-through surfaces stop
@@ -407,7 +407,7 @@ def _weighted_share(offset, normal, cos_source, blocked, disc, disagreeing: bool
     return (share, disagree) if disagreeing else share
 
 
-def _disagree(blocked: np.ndarray, counted: np.ndarray) -> np.ndarray:
+def unequally_blocked(blocked: np.ndarray, counted: np.ndarray) -> np.ndarray:
     """(k,) bool: whether the samples ``counted`` (k, S) bool are blocked unequally: some blocked
     and some not (``blocked`` (k, S) bool), or stopped in different shares by see-through surfaces
     (float; one even cover stops all alike)."""

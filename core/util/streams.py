@@ -31,6 +31,7 @@ CLOSURE_RAYS = 14  # the hierarchical solver's test of a closed scene (solve.hie
 POINT_TURNS = 15  # a soft light's samples at a point, from the point itself (``point_uniforms``; transport.direct)
 CLOSE_MIXED_DIRECTIONS = 16  # the directions into close emitters where the first ones disagree (transport.raycast)
 EMITTER_MIXED_SAMPLES = 17  # the samples of emitters read finely where the first ones disagree (transport.raycast)
+POINT_MIXED_TURNS = 18  # a soft light's samples at a point where its first ones disagree (transport.direct)
 
 # The parts of a bake that read lights and sky, an index of the keys above.
 NODES, PATCHES, BOUNCES = 1, 2, 3

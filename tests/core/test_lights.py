@@ -125,6 +125,45 @@ def test_a_spot_lights_radius_softens_its_cones_edge_as_cycles_masks_each_light_
     np.testing.assert_allclose(colours[bright, 0], expected[bright], rtol=0.05)
 
 
+def test_a_soft_lights_penumbra_is_read_with_more_samples_where_the_first_disagree():
+    """A point light of radius 0.3 m (Soft Falloff) 2 m over a floor, a half-plane 1 m up hiding
+    it beyond x = 0: the floor's penumbra against the integral over the disc facing each point
+    (200 x 800 polar cells, each blocked or not by where its ray crosses the half-plane: no ray
+    traced). Where a point's 16 stratified samples disagree, 64 others read it: measured RMS over
+    the penumbra (65 points) and seeds 0 to 3, 2.8 % of the lit floor's light (11.9 % at worst),
+    against 6.0 % (21.5 %) from the 16 alone. Bound 4 %."""
+    radius, height, edge_height = 0.3, 2.0, 1.0
+    light = PointLight([0.0, 0.0, height], [100.0] * 3, radius=radius, soft_falloff=True)
+    blocker = quad([0.0, -5, edge_height], [5, 0, 0], [0, 10, 0])
+    points = np.c_[np.linspace(-0.5, 0.5, 101), np.zeros(101), np.zeros(101)]
+    cells = 200
+    radii = radius * (np.arange(cells) + 0.5) / cells
+    angles = 2 * math.pi * (np.arange(4 * cells) + 0.5) / (4 * cells)
+    ring, angle = (grid.ravel() for grid in np.meshgrid(radii, angles))
+    area = ring * (radius / cells) * (2 * math.pi / (4 * cells))
+    exact = []
+    for point in points:
+        towards = (light.position - point) / np.linalg.norm(light.position - point)
+        u = np.cross(towards, [0.0, 1.0, 0.0])
+        u /= np.linalg.norm(u)
+        v = np.cross(towards, u)
+        offsets = light.position + (ring * np.cos(angle))[:, None] * u + (ring * np.sin(angle))[:, None] * v - point
+        distance2 = (offsets**2).sum(axis=1)
+        rays = offsets / np.sqrt(distance2)[:, None]
+        kernel = np.maximum(rays[:, 2], 0) * np.maximum(rays @ towards, 0) / distance2
+        seen = point[0] + (edge_height - point[2]) / offsets[:, 2] * offsets[:, 0] <= 0
+        exact.append((kernel * area * seen).sum() / (4 * math.pi**3 * radius**2))  # per unit of power
+    exact = np.array(exact)
+    penumbra = (exact > 0.02 * exact.max()) & (exact < 0.98 * exact.max())
+    errors = []
+    for seed in range(4):
+        lighting = DirectLighting((light,), np.zeros(3), Visibility(blocker[0][blocker[1]]), 16, seed)
+        read = lighting.factors_at(points, np.tile([0.0, 0.0, 1.0], (len(points), 1)), lambda _fraction: None)
+        errors.append(read[penumbra, 0, 0] - exact[penumbra])
+    assert penumbra.sum() > 50
+    assert np.sqrt(np.mean(np.square(errors))) < 0.04 * exact.max()
+
+
 @pytest.mark.parametrize("light", [
     SpotLight([0.0, 0.0, 0.5], [0, 0, -1], [100.0] * 3, math.radians(150), 0.0, radius=0.4, soft_falloff=True),
     PointLight([0.0, 0.0, 0.6], [100.0] * 3, radius=0.4, soft_falloff=True),
