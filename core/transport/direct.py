@@ -30,8 +30,9 @@ exact while the light is above the point's horizon. Either is seen from a point 
 radius r facing it: its visibility is the share of ``rays`` stratified points of that disc seen,
 each weighed by its unoccluded kernel, and a spot's cone mask is taken along each point's ray, as
 Cycles does (so a radius softens the cone's edge); a sun of angular diameter a likewise, over
-``rays`` directions uniform in the cone of half-angle a / 2. At a point where those disagree (a
-penumbra), MIXED_SAMPLES_PER_RAY times as many others are read instead.
+``rays`` directions uniform in the cone of half-angle a / 2; at a point (not a patch's paired
+points) two such sets, and MIXED_SAMPLES_PER_RAY times as many more where either disagrees (a
+penumbra: ``raycast.joined_shares``).
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ from ..scene.lights import AreaLight, Environment, PointLight, SpotLight, SunLig
 from ..util import parallel, streams
 from ..util.geometry import areas_and_normals, orthonormal_frames, subdivide, tangent_frames
 from .analytic import point_to_triangle
-from .raycast import RayCaster, lattice, stratified_samples, unequally_blocked
+from .raycast import RayCaster, joined_shares, lattice, stratified_samples, unequally_blocked
 
 # Evaluation points per block of work (each with up to a few thousand rays).
 POINTS_PER_BLOCK = 1024
@@ -95,9 +96,9 @@ NEXT_DOOR_POINTS = 3
 SPREAD_SAMPLES_PER_RAY = 4
 NARROW = 8
 # A soft light (a point or spot light of a radius, a sun of an angle) is read at a point (not a
-# patch's paired points) from ``rays`` stratified samples; where those disagree (some blocked, some
-# not: a penumbra), from MIXED_SAMPLES_PER_RAY x ``rays`` others instead, as the nodes read an
-# emitting patch (``raycast.EMITTER_MIXED_RAYS``).
+# patch's paired points) from two sets of ``rays`` stratified samples, and MIXED_SAMPLES_PER_RAY x
+# ``rays`` more where either disagrees (some blocked, some not: a penumbra), as the nodes read an
+# emitting patch (``raycast.joined_shares``).
 MIXED_SAMPLES_PER_RAY = 4
 # Samples (points x pieces x samples of each) of lights of a spread taken at once: bounds a block's
 # memory (some 150 bytes each).
@@ -138,7 +139,7 @@ class DirectLighting:
             # no RayCaster where ``_area_lights`` reads the light without one (no shadow, or a spread)
             ray_cast = light.casts_shadow and light.spread >= math.pi
             # read as an emitting patch is (``raycast``): in its solid angle close by, and at the
-            # points asked about finely with more rays where the first ones disagree
+            # points asked about finely with more rays where its first sets disagree
             caster = RayCaster(pieces, normals, areas, visibility, rays, seed + 1 + index,
                                emitting=np.ones(len(pieces), dtype=bool)) if ray_cast else None
             self._area.append((index, pieces, caster))
@@ -296,26 +297,27 @@ class DirectLighting:
               seen: Callable) -> np.ndarray:
         """(k,) the share of soft light ``light`` that each of the points ``lit`` (k,) of a block gets:
         ``seen(rows, samples)`` ((k',) shares, and (k',) bool whether the samples disagree) from
-        ``_light_samples``, and where those disagree at a point (not ``paired``), from
-        MIXED_SAMPLES_PER_RAY times as many others instead."""
-        share, disagree = seen(lit, self._light_samples(lit, key, light, paired, points[lit]))
-        again = np.flatnonzero(disagree) if not paired else np.zeros(0, dtype=np.int64)
-        if len(again):
-            rows = lit[again]
-            share[again] = seen(rows, self._light_samples(rows, key, light, paired, points[rows], mixed=True))[0]
-        return share
+        ``_light_samples``; at points (not ``paired``) from two sets and more where either
+        disagrees (``raycast.joined_shares``)."""
+        if paired or self.rays == 1:  # (one sample cannot disagree)
+            return seen(lit, self._light_samples(lit, key, light, paired, points[lit]))[0]
+        kinds = ("first", "more", "second")
+        return joined_shares(len(lit), self.rays, MIXED_SAMPLES_PER_RAY * self.rays, lambda rows, which: seen(
+            lit[rows], self._light_samples(lit[rows], key, light, paired, points[lit[rows]], kinds[which])))
 
     def _light_samples(self, chosen: np.ndarray, key: tuple[int, ...], light: int, paired: bool,
-                       points: np.ndarray, mixed: bool = False) -> np.ndarray:
+                       points: np.ndarray, kind: str = "first") -> np.ndarray:
         """(k, s, 2) stratified points of the unit square for the ``points`` (k, 3) ``chosen`` (k,)
         of a block: s = ``rays`` strata, each point's rotated (Cranley-Patterson) by numbers made
         from the point itself (``streams.point_uniforms``: a point's light is the same in whatever
         block it is asked); paired, s = 1, the stratum of each point's place among its patch's
-        ``rays`` samples, the patch's rotation drawn from the block's stream; ``mixed``, s =
-        MIXED_SAMPLES_PER_RAY x ``rays`` others (``_soft``)."""
-        if mixed:
-            rotation = streams.point_uniforms(self.seed, streams.POINT_MIXED_TURNS, light, points, 2)[:, None]
-            return (_strata(MIXED_SAMPLES_PER_RAY * self.rays)[None] + rotation) % 1.0
+        ``rays`` samples, the patch's rotation drawn from the block's stream; ``kind`` "second" or
+        "more" (``_soft``): s = ``rays`` or MIXED_SAMPLES_PER_RAY x ``rays`` others, rotated so too."""
+        if kind != "first":
+            count, tag = (self.rays, streams.POINT_SECOND_TURNS) if kind == "second" else (
+                MIXED_SAMPLES_PER_RAY * self.rays, streams.POINT_MIXED_TURNS)
+            rotation = streams.point_uniforms(self.seed, tag, light, points, 2)[:, None]
+            return (_strata(count)[None] + rotation) % 1.0
         grid = _strata(self.rays)
         if paired:
             rng = streams.generator(self.seed, streams.LIGHT_SAMPLES, *key, light)
@@ -477,7 +479,7 @@ class DirectLighting:
     def _area_lights(self, points, normals, finely: bool = False) -> np.ndarray:
         """(m, S, 3) area lights at points, per unit of power: each piece's form factor by shadow
         rays as an emitting patch's (``raycast.RayCaster``: in its solid angle close by; ``finely``,
-        as the nodes read, with more rays where the first ones disagree), the exact unoccluded
+        as the nodes read, with more rays where its first sets disagree), the exact unoccluded
         form factors for a light that casts no shadow, ``_spread_light`` for a light of a spread;
         times 1 / (pi A)."""
         result = np.zeros((len(points), self.source_count, 3))

@@ -21,6 +21,7 @@ orders of magnitude, and the visible share converges as the share of a hemispher
 from __future__ import annotations
 
 import functools
+from typing import Callable
 
 import numpy as np
 
@@ -35,18 +36,18 @@ from .analytic import point_to_triangle
 # (the tops of a gallery under a large sky triangle: docs/notes/experiments.md, and "The emitters'
 # light at the nodes" for the solid angle). CLOSE_RAYS rays (or the bake's rays per form factor, if
 # more), all cast; from the points asked about ``finely`` (a bake's nodes, whose colours show the
-# emitter's light), where those disagree (a shadow's edge crosses the source), CLOSE_MIXED_RAYS
-# other directions (or the bake's rays, if more) decide instead. The patches' light only feeds the
-# bounces: they keep the first ("Fewer rays where they buy nothing").
+# emitter's light), two such sets (``joined_shares``), and where either disagrees (a shadow's edge
+# crosses the source) CLOSE_MIXED_RAYS more directions (or the bake's rays, if more). The patches'
+# light only feeds the bounces: they keep the first ("Fewer rays where they buy nothing").
 CLOSE_REACH = 0.75
 CLOSE_RAYS = 16
 CLOSE_MIXED_RAYS = 128
-# Farther off, the points asked about finely sample an emitting patch at EMITTER_RAYS stratified
-# points, all cast, and where those disagree at EMITTER_MIXED_RAYS others instead, while the bake's
+# Farther off, the points asked about finely sample an emitting patch at two sets of EMITTER_RAYS
+# stratified points, all cast, and EMITTER_MIXED_RAYS more where either disagrees, while the bake's
 # rays per form factor are fewer than EMITTER_MIXED_RAYS; the other points, and all from that many
 # rays on, keep the bake's rays per form factor (probed). On Sponza, under its sky quad, the nodes' emitter
 # pairs cast alike (16 rays, 64 close by) read 2.54 / 2.70 % from path tracing (seeds 0 / 1),
-# with these 2.17 / 2.47 % for the shots' 0.8 s more (docs/notes/experiments.md, "The emitters'
+# with these 2.21 / 2.56 % for the shots' 1.8 s more (docs/notes/experiments.md, "The emitters'
 # shadows sampled where they fall").
 EMITTER_RAYS = 9
 EMITTER_MIXED_RAYS = 36
@@ -139,14 +140,16 @@ class RayCaster:
         fine = emitting & self._fine  # (none from EMITTER_MIXED_RAYS rays on)
         # the close sources' directions, first and where those disagree: (E, 1, 2) Cranley-Patterson
         # rotations of each one's lattice of the unit square (``_close_uv``)
-        self._close_rays = (max(CLOSE_RAYS, rays), max(CLOSE_MIXED_RAYS, rays))
-        self._close_shifts = [_rotations(seed, tag, np.count_nonzero(emitting))
-                              for tag in (streams.CLOSE_DIRECTIONS, streams.CLOSE_MIXED_DIRECTIONS)]
-        self._fine_samples = {count: stratified_samples(unit_corners[fine], count, _rotations(
+        self._close_rays = (max(CLOSE_RAYS, rays), max(CLOSE_MIXED_RAYS, rays), max(CLOSE_RAYS, rays))
+        self._close_shifts = [_rotations(seed, tag, np.count_nonzero(emitting)) for tag in (
+            streams.CLOSE_DIRECTIONS, streams.CLOSE_MIXED_DIRECTIONS, streams.CLOSE_SECOND_DIRECTIONS)]
+        # the first, the second and the more samples of each (``_fine_form_factors``)
+        self._fine_samples = [stratified_samples(unit_corners[fine], count, _rotations(
             seed, tag, np.count_nonzero(fine))).astype(np.float32) for count, tag in (
-            (EMITTER_RAYS, streams.EMITTER_SAMPLES), (EMITTER_MIXED_RAYS, streams.EMITTER_MIXED_SAMPLES))}
-        self._fine_disc = {count: (patch_areas[fine] * visibility.scale**2 / (np.pi * count)).astype(np.float32)
-                           for count in self._fine_samples}
+            (EMITTER_RAYS, streams.EMITTER_SAMPLES), (EMITTER_MIXED_RAYS, streams.EMITTER_MIXED_SAMPLES),
+            (EMITTER_RAYS, streams.EMITTER_SECOND_SAMPLES))]
+        self._fine_disc = [(patch_areas[fine] * visibility.scale**2 / (np.pi * samples.shape[1])).astype(np.float32)
+                           for samples in self._fine_samples]
         self._unit_probes = np.ascontiguousarray(self._unit_samples[:, self._probe])  # (P, probes, 3)
         # sources with another face in their plane over them (``contacts.coplanar_overlaps``)
         # need the first-hit rule below; for the others a ray stopped short of their plane tells
@@ -160,7 +163,7 @@ class RayCaster:
     @property
     def sample_bytes(self) -> int:
         return (self._unit_samples.nbytes + self._unit_probes.nbytes
-                + sum(values.nbytes for values in (*self._close_shifts, *self._fine_samples.values())))
+                + sum(values.nbytes for values in (*self._close_shifts, *self._fine_samples)))
 
     def grid_form_factors(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray,
                           finely: np.ndarray | None = None) -> np.ndarray:
@@ -191,9 +194,9 @@ class RayCaster:
                      sources: np.ndarray, finely: np.ndarray | None = None) -> np.ndarray:
         """(n,) form factors from points[receivers] (facing normals[receivers]) to patches
         ``sources``, pairwise; points (m, 3), normals (m, 3), receivers and sources (n,) int;
-        ``finely`` (m,) bool: the points that read the emitting sources with EMITTER_RAYS rays,
-        and EMITTER_MIXED_RAYS where those disagree, close by with CLOSE_MIXED_RAYS where the
-        first disagree (None: none)."""
+        ``finely`` (m,) bool: the points that read the emitting sources with two sets of
+        EMITTER_RAYS rays and EMITTER_MIXED_RAYS more where either disagrees, close by with
+        CLOSE_MIXED_RAYS more so (``joined_shares``; None: none)."""
         emitting = np.flatnonzero(self._emitter_slot[sources] >= 0)
         fine = emitting[:0] if finely is None else emitting[finely[receivers[emitting]]]
         close = emitting[:0]
@@ -240,24 +243,27 @@ class RayCaster:
 
     def _close_form_factors(self, points, normals, receivers, sources, finely) -> np.ndarray:
         """(n,) form factors to emitting sources close to their points (CLOSE_REACH), from their
-        first directions (``_close_rays``), and where ``finely`` (n,) bool and those disagree,
-        from their other directions instead (``solid_angle_form_factors``)."""
-        first, mixed = self._close_rays
-        result, disagree = np.empty(len(receivers)), np.zeros(len(receivers), dtype=bool)
-        for rows in _chunks(len(receivers), first):
-            result[rows], disagree[rows] = self.solid_angle_form_factors(
-                points, normals, receivers[rows], sources[rows], self._close_uv(sources[rows], 0), mixed=True)
-        again = np.flatnonzero(disagree & finely) if mixed > first else np.zeros(0, dtype=np.int64)
-        for rows in _chunks(len(again), mixed):
-            chosen = again[rows]
-            result[chosen] = self.solid_angle_form_factors(points, normals, receivers[chosen], sources[chosen],
-                                                           self._close_uv(sources[chosen], 1))
+        first directions (``_close_rays``), and where ``finely`` (n,) bool from those, a second
+        set and, where either disagrees, more (``joined_shares``; ``solid_angle_form_factors``)."""
+        first, more, _ = self._close_rays
+        result = np.empty(len(receivers))
+        finely = finely & (more > first)
+
+        def read(rows, which):
+            return self.solid_angle_form_factors(points, normals, receivers[rows], sources[rows],
+                                                 self._close_uv(sources[rows], which), mixed=True)
+
+        coarse = np.flatnonzero(~finely)
+        for rows in _chunks(len(coarse), first):
+            result[coarse[rows]] = read(coarse[rows], 0)[0]
+        fine = np.flatnonzero(finely)
+        result[fine] = joined_shares(len(fine), first, more, lambda rows, which: read(fine[rows], which))
         return result
 
     def _close_uv(self, sources: np.ndarray, which: int) -> np.ndarray:
         """(n, S, 2) points of the unit square for each of the emitting ``sources`` (n,): the
-        rank-1 lattice of the first (``which`` 0) or the other (1) directions' count
-        (``_close_rays``), rotated by the source's own shift."""
+        rank-1 lattice of the first (``which`` 0), the more (1) or the second (2) directions'
+        count (``_close_rays``), rotated by the source's own shift for them."""
         shifts = self._close_shifts[which][self._emitter_slot[sources]]
         return (lattice(self._close_rays[which])[None] + shifts) % 1.0
 
@@ -292,28 +298,23 @@ class RayCaster:
         return unoccluded
 
     def _fine_form_factors(self, points, normals, receivers, sources) -> np.ndarray:
-        """(n,) form factors to emitting sources from their EMITTER_RAYS samples, every one cast,
-        and where those disagree from their EMITTER_MIXED_RAYS samples instead."""
+        """(n,) form factors to emitting sources from their two sets of EMITTER_RAYS samples and,
+        where either disagrees, their EMITTER_MIXED_RAYS samples (``joined_shares``)."""
         normal = self.visibility.to_unit_directions(normals[receivers])
         origin = self.visibility.to_unit(points[receivers]) + RAY_EPSILON * normal
         unoccluded = point_to_triangle(points[receivers], normals[receivers], self.corners[sources])
         lit = np.flatnonzero(unoccluded > 0)
         slot = self._emitter_slot[sources]
 
-        def share(rows, count):
-            offset = self._fine_samples[count][slot[rows]] - origin[rows, None, :]
+        def share(rows, which):
+            rows = lit[rows]
+            offset = self._fine_samples[which][slot[rows]] - origin[rows, None, :]
             cos_source = self._cos_source(offset, sources[rows])
             blocked = self._blocked(origin[rows], offset, cos_source, sources[rows])
-            return _weighted_share(offset, normal[rows], cos_source, blocked, self._fine_disc[count][slot[rows]],
+            return _weighted_share(offset, normal[rows], cos_source, blocked, self._fine_disc[which][slot[rows]],
                                    disagreeing=True)
 
-        seen, disagree = np.empty(len(lit)), np.zeros(len(lit), dtype=bool)
-        for rows in _chunks(len(lit), EMITTER_RAYS):
-            seen[rows], disagree[rows] = share(lit[rows], EMITTER_RAYS)
-        again = np.flatnonzero(disagree)
-        for rows in _chunks(len(again), EMITTER_MIXED_RAYS):
-            seen[again[rows]] = share(lit[again[rows]], EMITTER_MIXED_RAYS)[0]
-        unoccluded[lit] *= seen
+        unoccluded[lit] *= joined_shares(len(lit), EMITTER_RAYS, EMITTER_MIXED_RAYS, share)
         return unoccluded
 
     def _seen_fraction(self, origin, normal, sources, probed) -> np.ndarray:
@@ -413,6 +414,30 @@ def unequally_blocked(blocked: np.ndarray, counted: np.ndarray) -> np.ndarray:
     (float; one even cover stops all alike)."""
     shares = blocked.astype(np.float32)
     return np.where(counted, shares, -1.0).max(axis=1) > np.where(counted, shares, 2.0).min(axis=1)
+
+
+def joined_shares(count: int, first: int, more: int, read: Callable) -> np.ndarray:
+    """(count,) shares of a light seen, each from two sets of ``first`` samples, and ``more`` where
+    either set disagrees: ``read(rows, which)`` gives (k,) shares and (k,) bool whether the samples
+    disagree for the pairs ``rows`` from set ``which`` (0 the first, 1 the more, 2 the second).
+    Each first set decides for the other: the share is the mean of the first set's, joined by the
+    more samples (weighed by their counts) where the second disagrees, and the second's, joined so
+    where the first disagrees. A set's verdict never decides its own reading, so every reading is
+    unbiased: decided by its own samples, a pair whose few samples all miss a thin blocker keeps
+    their verdict, and the blocker's shadow is lost on average (a bar 1 cm wide 1 m under a light
+    0.6 m wide, 2 m over the floor: 0.6 to 0.9 of it)."""
+    shares, disagree = np.empty((2, count)), np.zeros((2, count), dtype=bool)
+    for rows in _chunks(count, first):
+        for place, which in enumerate((0, 2)):
+            shares[place, rows], disagree[place, rows] = read(np.arange(count)[rows], which)
+    again = np.flatnonzero(disagree.any(axis=0))
+    joined = np.empty(len(again))
+    for rows in _chunks(len(again), more):
+        joined[rows] = read(again[rows], 1)[0]
+    for place in range(2):
+        other = disagree[1 - place, again]  # the other set decides
+        shares[place, again[other]] = (first * shares[place, again[other]] + more * joined[other]) / (first + more)
+    return shares.mean(axis=0)
 
 
 def _chunks(count: int, rays: int) -> list[slice]:

@@ -32,6 +32,9 @@ POINT_TURNS = 15  # a soft light's samples at a point, from the point itself (``
 CLOSE_MIXED_DIRECTIONS = 16  # the directions into close emitters where the first ones disagree (transport.raycast)
 EMITTER_MIXED_SAMPLES = 17  # the samples of emitters read finely where the first ones disagree (transport.raycast)
 POINT_MIXED_TURNS = 18  # a soft light's samples at a point where its first ones disagree (transport.direct)
+EMITTER_SECOND_SAMPLES = 19  # the second set of samples of emitters read finely (transport.raycast)
+CLOSE_SECOND_DIRECTIONS = 20  # the second set of directions into close emitters (transport.raycast)
+POINT_SECOND_TURNS = 21  # a soft light's second set of samples at a point (transport.direct)
 
 # The parts of a bake that read lights and sky, an index of the keys above.
 NODES, PATCHES, BOUNCES = 1, 2, 3

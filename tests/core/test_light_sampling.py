@@ -84,17 +84,17 @@ def penumbra_scene(light_as_mesh: bool) -> tuple[Scene, int]:
 
 
 @pytest.mark.parametrize("light_as_mesh, patch_size, rms_tolerance, max_tolerance", [
-    # 18 patches, each read by the floor's nodes at 9 stratified points and, where those
-    # disagree, at 36 others (``raycast.EMITTER_MIXED_RAYS``): a patch the shadow's edge crosses
-    # between the first 9 counts as wholly seen or hidden; measured 0.91 % RMS, 2.5 % at worst
-    # (over seeds 0 to 5: 0.65 % RMS; with 16 rays a patch, 4 probes first: 1.34 % and 3.9 %, 1.54 %
-    # over the seeds; in 2 patches, as the patch size asks: 6.9 % and 41 %)
+    # 18 patches, each read by the floor's nodes at two sets of 9 stratified points and, where
+    # either disagrees, 36 more (``raycast.joined_shares``); measured 0.53 % RMS, 1.6 % at worst
+    # (over seeds 0 to 5: 0.45 % RMS; with 16 rays a patch, 4 probes first, where a shadow's edge
+    # crossing between the probes is missed: 1.34 % and 3.9 %, 1.54 % over the seeds; in 2
+    # patches, as the patch size asks: 6.9 % and 41 %)
     (True, 1.0, 0.012, 0.035),
     # the patch size would make the black light 128 patches: it is split into 18 all the same
-    # (measured 0.90 % RMS, 2.5 % at worst; with 16 rays a patch, probed, 1.53 % and 4.9 %)
+    # (measured 0.53 % RMS, 1.6 % at worst; with 16 rays a patch, probed, 1.53 % and 4.9 %)
     (True, 0.1, 0.012, 0.035),
-    # 18 pieces of 16 rays, every ray cast: measured 0.54 % RMS, 1.7 % at worst (in its 2
-    # triangles: 3.7 % and 11 %)
+    # 18 pieces read as the emitting patches above: measured 0.44 % RMS, 1.5 % at worst (with 16
+    # rays a piece, every ray cast: 0.74 % and 1.9 %; in its 2 triangles: 3.7 % and 11 %)
     (False, 1.0, 0.009, 0.026),
 ])
 def test_a_small_light_casts_its_exact_penumbra(light_as_mesh, patch_size, rms_tolerance, max_tolerance):
@@ -202,12 +202,13 @@ def _close_under_a_half_hidden_emitter(edge: float, emitting: bool, seed: int, h
 def test_an_emitter_close_by_is_sampled_finely_enough_for_a_shadow_edge(height, finely, bound):
     """An emitter seen from within CLOSE_REACH of its size gets directions uniform in its solid
     angle, all cast, where 4 samples (the probes) decide a far one: CLOSE_RAYS (16), and from a
-    point asked about finely (a node) CLOSE_MIXED_RAYS (128) others where those 16 disagree. A
+    point asked about finely (a node) two such sets and CLOSE_MIXED_RAYS (128) more where either
+    disagrees (``raycast.joined_shares``). A
     straight shadow edge crosses about n of a triangle's n x n strata, each seen or not: about
     sqrt(n) / n^2 of the triangle's share, half that of the whole square's form factor (6 % at n =
     4) at worst; measured RMS over three edges and eight seeds, at heights 1, 0.2 and 0.05: finely
-    1.06, 0.56 and 0.25 % (the first 16 alone, as below, 3.0, 1.7 and 0.75 %; 128 everywhere 0.57,
-    0.28 and 0.14 %; 64 everywhere, as before the first were followed by others, 1.14, 0.53 and 0.17 %;
+    0.83, 0.34 and 0.26 % (16 alone, as below, 3.0, 1.7 and 0.75 %; 128 everywhere 0.57, 0.28 and
+    0.14 %; 64 everywhere, as before the sets were joined by more, 1.14, 0.53 and 0.17 %;
     samples uniform in area, weighted by the kernel, read 1.6, 4.0 and 9.9 % from 64: so close, the
     few samples under the point weigh for all), else 3.0, 1.7 and 0.75 % (bound 4.5 %), against 9
     to 29 % with 4 samples per patch."""
@@ -237,12 +238,12 @@ def test_more_rays_per_form_factor_read_a_close_emitter_with_as_many_directions(
 @pytest.mark.parametrize("height", [1.0, 0.2, 0.05])
 def test_an_area_light_close_by_is_read_as_an_emitting_patch_is(height):
     """An area light (not geometry: Blender's Area light) is read at the nodes as an emitting patch
-    is, in its solid angle close by and with more rays where the first ones disagree: the 2 x 2
+    is, in its solid angle close by and with more rays where its first sets disagree: the 2 x 2
     light over a point facing up, half hidden as in ``_close_under_a_half_hidden_emitter``, split
     into its pieces (``MIN_LIGHT_PIECES``), G against the exact F / (pi A). Measured RMS over three
-    edges and eight seeds, of the whole light's G, at heights 1, 0.2 and 0.05: 0.50, 0.57 and
-    0.17 % (1.03, 1.65 and 0.37 % at worst), where 16 samples of each piece uniform in area,
-    weighted by the kernel, all cast, read 0.91, 3.4 and 4.1 % (12 % at worst). Bound 1.2 %."""
+    edges and eight seeds, of the whole light's G, at heights 1, 0.2 and 0.05: 0.38, 0.34 and
+    0.21 % (1.3 % at worst), where 16 samples of each piece uniform in area, weighted by the
+    kernel, all cast, read 0.91, 3.4 and 4.1 % (12 % at worst). Bound 1.2 %."""
     errors = []
     for edge in (-0.43, 0.13, 0.52):
         emitter = quad([-1, -1, height], [0, 2, 0], [2, 0, 0])  # faces down
@@ -261,11 +262,11 @@ def test_an_area_light_close_by_is_read_as_an_emitting_patch_is(height):
 
 def test_the_nodes_read_a_far_emitter_with_more_rays():
     """Beyond CLOSE_REACH, the points asked about finely (a bake's nodes) sample an emitting patch
-    at EMITTER_RAYS (9) stratified points, all cast, and where those disagree at EMITTER_MIXED_RAYS
-    (36) others, where the probes (4) decide for the other points: a shadow edge crosses about 6
-    of a triangle's 6 x 6 strata, sqrt(6) / 36 of its share, 3.4 % of the square's form factor at
-    worst; measured RMS over three edges and eight seeds at height 4: 2.5 % (36 everywhere 2.3 %,
-    the first 9 alone 5.1 %), against 8 % with the probes. Bound 3.5 %."""
+    at two sets of EMITTER_RAYS (9) stratified points, all cast, and EMITTER_MIXED_RAYS (36) more
+    where either disagrees, where the probes (4) decide for the other points: a shadow edge
+    crosses about 6 of a triangle's 6 x 6 strata, sqrt(6) / 36 of its share, 3.4 % of the square's
+    form factor at worst; measured RMS over three edges and eight seeds at height 4: 2.5 % (36
+    everywhere 2.3 %, 9 alone 5.1 %), against 8 % with the probes. Bound 3.5 %."""
     errors = {True: [], False: []}
     for edge in (-0.43, 0.13, 0.52):
         for seed in range(8):

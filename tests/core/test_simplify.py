@@ -125,8 +125,12 @@ def test_a_twisted_wall_merges_and_its_vertices_stay_in_the_room():
     than contacts.PARALLEL, as on the Cornell box's twisted left wall, so the wall merges into
     flat panels within 1 % of their size of its vertices. The vertices are evaluated on the
     panels: behind them, the panels would hide the room and B = E = 1 there. B = E / (1 - rho)
-    = 5 holds to 1e-3: no longer exactly, since a bulging wall hides part of the room from some
-    points, which 16 rays sample (unmerged, the same room is 4.6e-4 off; merged, 1.5e-4)."""
+    = 5 holds to 5e-3: no longer exactly, since a bulging wall hides part of the room from some
+    points at grazing angles, which the nodes sample with two sets of 9 rays a patch, all cast,
+    and more where they disagree (``raycast.joined_shares``): over seeds 0 to 2, 3.4e-3, 2.2e-4 and
+    1.9e-3 at worst (the first 9 alone 6.9e-3 at seed 0). With 4 probes a patch that all agreed,
+    as the nodes read before, 2.2e-4 at every seed: the probes missed that occlusion, which in a
+    furnace the bulge's own light makes up."""
     faces = [grid(c, u, v, 4) for c, u, v in INWARD_FACES if c != [1, 0, 0]]  # all but x = 1
     twisted_vertices, twisted_triangles = grid([1, 0, 0], [0, 0, 1], [0, 1, 0], 16)
     y, z = twisted_vertices[:, 1], twisted_vertices[:, 2]
@@ -136,7 +140,7 @@ def test_a_twisted_wall_merges_and_its_vertices_stay_in_the_room():
     twisted = merged.scene.triangles[merged.panel_source >= len(scene.triangles) - len(twisted_triangles)]
     assert len(twisted) < len(twisted_triangles) / 4
     result = bake(scene, merge_flat=True, patch_size=2.0, tolerance=1e-7)
-    np.testing.assert_allclose(result.corner_colors, 5.0, rtol=1e-3)
+    np.testing.assert_allclose(result.corner_colors, 5.0, rtol=5e-3)
 
 
 @pytest.mark.parametrize("method", ["raycast", "hemicube"])
