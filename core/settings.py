@@ -102,7 +102,8 @@ KNOBS: tuple[Knob, ...] = (
          "receives more accurately, at a cost that grows with their number", "scene units", low=0, open="low",
          none="auto", none_means="the scene's extent / 8"),
     Knob("rays_per_form_factor", int, 16, "Visibility rays from a receiving point to each patch (one per "
-         "stratum), and per piece of an area light (4 times as many for one of a spread); the sky gets 16 times as "
+         "stratum), and per piece of an area light (4 times as many for one of a spread); the vertices read lights "
+         "and emitters by two sets of samples and more where a shadow crosses them; the sky gets 16 times as "
          "many directions at each vertex, 4 times at each patch", "rays", low=1,
          square=True),
     Knob("hemicube_resolution", int, 64, "Pixels across the hemicube's top face", "pixels", low=2, even=True),

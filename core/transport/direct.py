@@ -111,10 +111,11 @@ MAX_ADDED_LIGHT_PIECES = 256
 class DirectLighting:
     """G = H / pi from the lights and the sky at points, with shadows by rays.
 
-    rays : light samples per piece of an area light (SPREAD_SAMPLES_PER_RAY times as many for one of
-        a spread; as the bake's rays per form factor; the sky
-        gets SKY_RAYS_PER_RAY times as many directions per point, PATCH_SKY_RAYS_PER_RAY times per
-        patch); seed fixes them. An area light of few triangles is split into at least
+    rays : light samples per piece of an area light at a patch (SPREAD_SAMPLES_PER_RAY times as many
+        for one of a spread; at the nodes as an emitting patch's: ``raycast.RayCaster``), and per
+        soft light (two sets at a point, and more where either disagrees: ``_soft``); as the bake's
+        rays per form factor; the sky gets SKY_RAYS_PER_RAY times as many directions per point,
+        PATCH_SKY_RAYS_PER_RAY times per patch; seed fixes them. An area light of few triangles is split into at least
         ``discretize.MIN_LIGHT_PIECES`` pieces (its penumbrae need them), unless the splits of all
         of them would add more than MAX_ADDED_LIGHT_PIECES.
     """
