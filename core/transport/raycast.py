@@ -116,9 +116,9 @@ class RayCaster:
         (``probe_samples``: 4 of 16, 16 of 64) are cast first and the rest only where those
         disagree: about half the time of a bake, but a shadow edge that crosses a source between
         the probes is missed (a blocker's form factor 1 % off in tests/core/test_occlusion.py).
-        ``emitting`` (P,) bool: the patches sampled in their solid angle from close by, and with
-        EMITTER_RAYS then EMITTER_MIXED_RAYS from the points asked about finely while
-        EMITTER_MIXED_RAYS is more than ``rays``."""
+        ``emitting`` (P,) bool: the patches sampled in their solid angle from close by, and from
+        the points asked about finely by two sets of EMITTER_RAYS and EMITTER_MIXED_RAYS more where
+        either disagrees (``joined_shares``), while EMITTER_MIXED_RAYS is more than ``rays``."""
         self.corners = patch_corners
         self.normals = patch_normals
         self.owners = patch_owners
