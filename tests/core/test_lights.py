@@ -82,12 +82,13 @@ def test_a_point_light_of_a_radius_lights_as_a_sphere_or_with_soft_falloff_as_a_
     np.testing.assert_allclose(colours, expected, rtol=NODE_RTOL)
 
 
-def facing_disc_light(points, light, cells: int = 48) -> np.ndarray:
+def facing_disc_light(points, light, cells: int = 48, seen=None) -> np.ndarray:
     """G at points (k, 3) of a floor facing +z under a point or spot light of Soft Falloff: the
     integral, over the disc of its radius facing each point (cells x 4 cells polar cells), of its
     radiance P / (4 pi^2 R^2) times a spot's cone mask along each ray, cos_point cos_disc / r^2,
     over pi (Cycles' ``spot_light_sample``; a Cycles render of the floor under a spot read 0.998 to
-    1.002 of it, ring by ring: docs/notes/experiments.md, "A spot's radius")."""
+    1.002 of it, ring by ring: docs/notes/experiments.md, "A spot's radius"); with ``seen(point,
+    offsets)``, (c,) bool for the offsets (c, 3) from the point to the cells, over those alone."""
     radii = light.radius * (np.arange(cells) + 0.5) / cells
     angles = 2 * math.pi * (np.arange(4 * cells) + 0.5) / (4 * cells)
     radius, angle = (grid.ravel() for grid in np.meshgrid(radii, angles))
@@ -104,6 +105,8 @@ def facing_disc_light(points, light, cells: int = 48) -> np.ndarray:
         rays = offsets / np.sqrt(distance2)[:, None]
         kernel = np.maximum(rays[:, 2], 0) * np.maximum(rays @ towards, 0) / distance2
         mask = light.cone_mask(-rays) if isinstance(light, SpotLight) else 1.0
+        if seen is not None:
+            mask = mask * seen(point, offsets)
         values.append((radiance * mask * kernel * area).sum() / math.pi)
     return np.array(values)
 
@@ -126,27 +129,10 @@ def test_a_spot_lights_radius_softens_its_cones_edge_as_cycles_masks_each_light_
 
 
 def _disc_under_a_plane(points, light, height, blocked, cells: int = 200) -> np.ndarray:
-    """G per unit of power at floor points (k, 3) facing +z under a point light of Soft Falloff: the
-    integral over the disc of its radius facing each point (cells x 4 cells polar cells) of its
-    radiance times cos_point cos_disc / r^2, over pi, for the cells whose ray does not cross the
-    plane z = ``height`` where ``blocked(x)`` (no ray traced)."""
-    radii = light.radius * (np.arange(cells) + 0.5) / cells
-    angles = 2 * math.pi * (np.arange(4 * cells) + 0.5) / (4 * cells)
-    ring, angle = (grid.ravel() for grid in np.meshgrid(radii, angles))
-    area = ring * (light.radius / cells) * (2 * math.pi / (4 * cells))
-    values = []
-    for point in points:
-        towards = (light.position - point) / np.linalg.norm(light.position - point)
-        u = np.cross(towards, [0.0, 1.0, 0.0])
-        u /= np.linalg.norm(u)
-        v = np.cross(towards, u)
-        offsets = light.position + (ring * np.cos(angle))[:, None] * u + (ring * np.sin(angle))[:, None] * v - point
-        distance2 = (offsets**2).sum(axis=1)
-        rays = offsets / np.sqrt(distance2)[:, None]
-        kernel = np.maximum(rays[:, 2], 0) * np.maximum(rays @ towards, 0) / distance2
-        seen = ~blocked(point[0] + (height - point[2]) / offsets[:, 2] * offsets[:, 0])
-        values.append((kernel * area * seen).sum() / (4 * math.pi**3 * light.radius**2))
-    return np.array(values)
+    """``facing_disc_light`` per unit of power over the cells whose ray does not cross the plane z =
+    ``height`` where ``blocked(x)`` (no ray traced)."""
+    return facing_disc_light(points, light, cells, lambda point, offsets: ~blocked(
+        point[0] + (height - point[2]) / offsets[:, 2] * offsets[:, 0])) / light.power[0]
 
 
 def test_a_soft_lights_penumbra_is_read_with_more_samples_where_its_first_sets_disagree():
