@@ -43,12 +43,14 @@ CLOSE_REACH = 0.75
 CLOSE_RAYS = 16
 CLOSE_MIXED_RAYS = 128
 # Farther off, the points asked about finely sample an emitting patch at two sets of EMITTER_RAYS
-# stratified points, all cast, and EMITTER_MIXED_RAYS more where either disagrees, while the bake's
-# rays per form factor are fewer than EMITTER_MIXED_RAYS; the other points, and all from that many
-# rays on, keep the bake's rays per form factor (probed). On Sponza, under its sky quad, the nodes' emitter
-# pairs cast alike (16 rays, 64 close by) read 2.54 / 2.70 % from path tracing (seeds 0 / 1),
-# with these 2.21 / 2.56 % for the shots' 1.8 s more (docs/notes/experiments.md, "The emitters'
-# shadows sampled where they fall").
+# stratified points, all cast, and EMITTER_MIXED_RAYS (or the bake's rays per form factor, if more)
+# more where either disagrees. On Sponza, under its sky quad, the nodes' emitter pairs cast alike
+# (16 rays, 64 close by) read 2.54 / 2.70 % from path tracing (seeds 0 / 1), with these 2.21 /
+# 2.56 % for the shots' 1.8 s more (docs/notes/experiments.md, "The emitters' shadows sampled where
+# they fall"). The other points (the patches) keep the bake's rays, probed where the caster probes:
+# a thin blocker between the probes is missed there (0.9 of a 1 cm bar's shadow), which two sets
+# of the probes' count would mend for 1 s of Sponza's shots and no gain in its error ("The
+# patches' emitters read by two sets").
 EMITTER_RAYS = 9
 EMITTER_MIXED_RAYS = 36
 # The emitters' samples are cast at most CHUNK_RAYS at a time, about 180 bytes a ray: a block of
@@ -116,9 +118,9 @@ class RayCaster:
         (``probe_samples``: 4 of 16, 16 of 64) are cast first and the rest only where those
         disagree: about half the time of a bake, but a shadow edge that crosses a source between
         the probes is missed (a blocker's form factor 1 % off in tests/core/test_occlusion.py).
-        ``emitting`` (P,) bool: the patches sampled in their solid angle from close by, and from
-        the points asked about finely by two sets of EMITTER_RAYS and EMITTER_MIXED_RAYS more where
-        either disagrees (``joined_shares``), while EMITTER_MIXED_RAYS is more than ``rays``."""
+        ``emitting`` (P,) bool: the patches sampled in their solid angle from close by; farther
+        off from the points asked about finely by two sets of EMITTER_RAYS and max(EMITTER_MIXED_RAYS,
+        ``rays``) more where either disagrees (``joined_shares``)."""
         self.corners = patch_corners
         self.normals = patch_normals
         self.owners = patch_owners
@@ -135,21 +137,27 @@ class RayCaster:
         emitting = np.zeros(len(patch_corners), dtype=bool) if emitting is None else emitting
         self._emitter_slot = np.full(len(patch_corners), -1)
         self._emitter_slot[emitting] = np.arange(np.count_nonzero(emitting))
-        self._fine = EMITTER_MIXED_RAYS > rays
         self._close_reach2 = (CLOSE_REACH * longest_edges(patch_corners)) ** 2
-        fine = emitting & self._fine  # (none from EMITTER_MIXED_RAYS rays on)
+        emitters = np.count_nonzero(emitting)
         # the close sources' directions, first and where those disagree: (E, 1, 2) Cranley-Patterson
         # rotations of each one's lattice of the unit square (``_close_uv``)
         self._close_rays = (max(CLOSE_RAYS, rays), max(CLOSE_MIXED_RAYS, rays), max(CLOSE_RAYS, rays))
-        self._close_shifts = [_rotations(seed, tag, np.count_nonzero(emitting)) for tag in (
+        self._close_shifts = [_rotations(seed, tag, emitters) for tag in (
             streams.CLOSE_DIRECTIONS, streams.CLOSE_MIXED_DIRECTIONS, streams.CLOSE_SECOND_DIRECTIONS)]
-        # the first, the second and the more samples of each (``_fine_form_factors``)
-        self._fine_samples = [stratified_samples(unit_corners[fine], count, _rotations(
-            seed, tag, np.count_nonzero(fine))).astype(np.float32) for count, tag in (
-            (EMITTER_RAYS, streams.EMITTER_SAMPLES), (EMITTER_MIXED_RAYS, streams.EMITTER_MIXED_SAMPLES),
-            (EMITTER_RAYS, streams.EMITTER_SECOND_SAMPLES))]
-        self._fine_disc = [(patch_areas[fine] * visibility.scale**2 / (np.pi * samples.shape[1])).astype(np.float32)
-                           for samples in self._fine_samples]
+
+        def sample_set(count: int, tag: int | None) -> tuple[np.ndarray, np.ndarray]:
+            """(E, count, 3) stratified samples of each emitter from the stream ``tag`` (None: its
+            ``rays`` samples above), and (E,) their disc term."""
+            samples = self._unit_samples[emitting] if tag is None else stratified_samples(
+                unit_corners[emitting], count, _rotations(seed, tag, emitters)).astype(np.float32)
+            return samples, (patch_areas[emitting] * visibility.scale**2 / (np.pi * count)).astype(np.float32)
+
+        # the first, the more and the second samples of each emitter, read at the points asked
+        # about finely (``_fine_form_factors``)
+        more = sample_set(rays, None) if rays >= EMITTER_MIXED_RAYS else \
+            sample_set(EMITTER_MIXED_RAYS, streams.EMITTER_MIXED_SAMPLES)
+        self._fine_sets = (sample_set(EMITTER_RAYS, streams.EMITTER_SAMPLES), more,
+                           sample_set(EMITTER_RAYS, streams.EMITTER_SECOND_SAMPLES))
         self._unit_probes = np.ascontiguousarray(self._unit_samples[:, self._probe])  # (P, probes, 3)
         # sources with another face in their plane over them (``contacts.coplanar_overlaps``)
         # need the first-hit rule below; for the others a ray stopped short of their plane tells
@@ -163,7 +171,8 @@ class RayCaster:
     @property
     def sample_bytes(self) -> int:
         return (self._unit_samples.nbytes + self._unit_probes.nbytes
-                + sum(values.nbytes for values in (*self._close_shifts, *self._fine_samples)))
+                + sum(values.nbytes for values in self._close_shifts)
+                + sum(samples.nbytes + disc.nbytes for samples, disc in self._fine_sets))
 
     def grid_form_factors(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray,
                           finely: np.ndarray | None = None) -> np.ndarray:
@@ -195,17 +204,15 @@ class RayCaster:
         """(n,) form factors from points[receivers] (facing normals[receivers]) to patches
         ``sources``, pairwise; points (m, 3), normals (m, 3), receivers and sources (n,) int;
         ``finely`` (m,) bool: the points that read the emitting sources with two sets of
-        EMITTER_RAYS rays and EMITTER_MIXED_RAYS more where either disagrees, close by with
-        CLOSE_MIXED_RAYS more so (``joined_shares``; None: none)."""
+        EMITTER_RAYS rays and max(EMITTER_MIXED_RAYS, ``rays``) more where either disagrees, close
+        by with CLOSE_MIXED_RAYS more so (``joined_shares``; None: none)."""
         emitting = np.flatnonzero(self._emitter_slot[sources] >= 0)
-        fine = emitting[:0] if finely is None else emitting[finely[receivers[emitting]]]
-        close = emitting[:0]
-        if len(emitting):
-            offset = points[receivers[emitting]] - self.corners[sources[emitting]].mean(axis=1)
-            close = emitting[np.einsum("kx,kx->k", offset, offset) < self._close_reach2[sources[emitting]]]
-        fine = np.setdiff1d(fine, close, assume_unique=True) if self._fine else emitting[:0]
-        if len(close) == 0 and len(fine) == 0:
+        if len(emitting) == 0:
             return self._probed_form_factors(points, normals, receivers, sources)
+        offset = points[receivers[emitting]] - self.corners[sources[emitting]].mean(axis=1)
+        near = np.einsum("kx,kx->k", offset, offset) < self._close_reach2[sources[emitting]]
+        close, far = emitting[near], emitting[~near]
+        fine = far[:0] if finely is None else far[finely[receivers[far]]]
         result = np.empty(len(receivers))
         rest = np.ones(len(receivers), dtype=bool)
         rest[close], rest[fine] = False, False
@@ -298,8 +305,9 @@ class RayCaster:
         return unoccluded
 
     def _fine_form_factors(self, points, normals, receivers, sources) -> np.ndarray:
-        """(n,) form factors to emitting sources from their two sets of EMITTER_RAYS samples and,
-        where either disagrees, their EMITTER_MIXED_RAYS samples (``joined_shares``)."""
+        """(n,) form factors to emitting sources from their two first sets of EMITTER_RAYS samples
+        and, where either disagrees, their more samples (``joined_shares``)."""
+        sets = self._fine_sets
         normal = self.visibility.to_unit_directions(normals[receivers])
         origin = self.visibility.to_unit(points[receivers]) + RAY_EPSILON * normal
         unoccluded = point_to_triangle(points[receivers], normals[receivers], self.corners[sources])
@@ -308,13 +316,13 @@ class RayCaster:
 
         def share(rows, which):
             rows = lit[rows]
-            offset = self._fine_samples[which][slot[rows]] - origin[rows, None, :]
+            samples, disc = sets[which]
+            offset = samples[slot[rows]] - origin[rows, None, :]
             cos_source = self._cos_source(offset, sources[rows])
             blocked = self._blocked(origin[rows], offset, cos_source, sources[rows])
-            return _weighted_share(offset, normal[rows], cos_source, blocked, self._fine_disc[which][slot[rows]],
-                                   disagreeing=True)
+            return _weighted_share(offset, normal[rows], cos_source, blocked, disc[slot[rows]], disagreeing=True)
 
-        unoccluded[lit] *= joined_shares(len(lit), EMITTER_RAYS, EMITTER_MIXED_RAYS, share)
+        unoccluded[lit] *= joined_shares(len(lit), sets[0][0].shape[1], sets[1][0].shape[1], share)
         return unoccluded
 
     def _seen_fraction(self, origin, normal, sources, probed) -> np.ndarray:

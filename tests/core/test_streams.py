@@ -9,8 +9,9 @@ import numpy as np
 
 from core.util import streams
 
-TAGS = sorted({value for name, value in vars(streams).items() if name.isupper() and name not in
-               ("NODES", "PATCHES", "BOUNCES")})
+# Every use's tag, one entry per name (a list, so that two names of one value show as a repeat).
+TAGS = [value for name, value in vars(streams).items()
+        if name.isupper() and not name.startswith("_") and name not in ("NODES", "PATCHES", "BOUNCES")]
 INDICES = [(), (0,), (0, 0), (4,), (4, 0), (0, 4), (2, 0, 0), (1, 1024), (1, 1024, 0), (3, 2, 0, 1)]
 
 
