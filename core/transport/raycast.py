@@ -145,16 +145,17 @@ class RayCaster:
         self._close_shifts = [_rotations(seed, tag, emitters) for tag in (
             streams.CLOSE_DIRECTIONS, streams.CLOSE_MIXED_DIRECTIONS, streams.CLOSE_SECOND_DIRECTIONS)]
 
-        def sample_set(count: int, tag: int | None) -> tuple[np.ndarray, np.ndarray]:
-            """(E, count, 3) stratified samples of each emitter from the stream ``tag`` (None: its
-            ``rays`` samples above), and (E,) their disc term."""
-            samples = self._unit_samples[emitting] if tag is None else stratified_samples(
-                unit_corners[emitting], count, _rotations(seed, tag, emitters)).astype(np.float32)
-            return samples, (patch_areas[emitting] * visibility.scale**2 / (np.pi * count)).astype(np.float32)
+        def sample_set(count: int, tag: int) -> tuple[np.ndarray, np.ndarray, bool]:
+            """(E, count, 3) stratified samples of each emitter from the stream ``tag``, (E,) their
+            disc term, and False: indexed by emitter (``_emitter_slot``), not by patch."""
+            samples = stratified_samples(unit_corners[emitting], count, _rotations(seed, tag, emitters))
+            disc = patch_areas[emitting] * visibility.scale**2 / (np.pi * count)
+            return samples.astype(np.float32), disc.astype(np.float32), False
 
         # the first, the more and the second samples of each emitter, read at the points asked
-        # about finely (``_fine_form_factors``)
-        more = sample_set(rays, None) if rays >= EMITTER_MIXED_RAYS else \
+        # about finely (``_fine_form_factors``); the more are the bake's rays (indexed by patch)
+        # where those are as many
+        more = (self._unit_samples, self._unit_disc, True) if rays >= EMITTER_MIXED_RAYS else \
             sample_set(EMITTER_MIXED_RAYS, streams.EMITTER_MIXED_SAMPLES)
         self._fine_sets = (sample_set(EMITTER_RAYS, streams.EMITTER_SAMPLES), more,
                            sample_set(EMITTER_RAYS, streams.EMITTER_SECOND_SAMPLES))
@@ -172,7 +173,7 @@ class RayCaster:
     def sample_bytes(self) -> int:
         return (self._unit_samples.nbytes + self._unit_probes.nbytes
                 + sum(values.nbytes for values in self._close_shifts)
-                + sum(samples.nbytes + disc.nbytes for samples, disc in self._fine_sets))
+                + sum(samples.nbytes + disc.nbytes for samples, disc, by_patch in self._fine_sets if not by_patch))
 
     def grid_form_factors(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray,
                           finely: np.ndarray | None = None) -> np.ndarray:
@@ -316,11 +317,12 @@ class RayCaster:
 
         def share(rows, which):
             rows = lit[rows]
-            samples, disc = sets[which]
-            offset = samples[slot[rows]] - origin[rows, None, :]
+            samples, disc, by_patch = sets[which]
+            index = sources[rows] if by_patch else slot[rows]
+            offset = samples[index] - origin[rows, None, :]
             cos_source = self._cos_source(offset, sources[rows])
             blocked = self._blocked(origin[rows], offset, cos_source, sources[rows])
-            return _weighted_share(offset, normal[rows], cos_source, blocked, disc[slot[rows]], disagreeing=True)
+            return _weighted_share(offset, normal[rows], cos_source, blocked, disc[index], disagreeing=True)
 
         unoccluded[lit] *= joined_shares(len(lit), sets[0][0].shape[1], sets[1][0].shape[1], share)
         return unoccluded
