@@ -124,8 +124,8 @@ class FormFactorEngine:
     def emitter_form_factors(self, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The emitting patches (e,) and the form factors (m, e) from points (m, 3) facing normals
         (m, 3) to them, read finely (two sets of ``raycast.EMITTER_RAYS``, and ``EMITTER_MIXED_RAYS``
-        (or the rays, if more) or ``CLOSE_MIXED_RAYS`` where those disagree: the points are where
-        colours are shown, as the nodes)."""
+        or ``CLOSE_MIXED_RAYS``, each or the rays if more, where those disagree: the points are
+        where colours are shown, as the nodes)."""
         mesh = self.mesh
         emitters = np.flatnonzero(mesh.patch_emission.any(axis=1))
         factors = np.zeros((len(points), len(emitters)))

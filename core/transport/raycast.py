@@ -49,8 +49,8 @@ CLOSE_MIXED_RAYS = 128
 # 2.56 % for the shots' 1.8 s more (docs/notes/experiments.md, "The emitters' shadows sampled where
 # they fall"). The other points (the patches) keep the bake's rays, probed where the caster probes:
 # a thin blocker between the probes is missed there (0.9 of a 1 cm bar's shadow), which two sets
-# of the probes' count would mend for 1 s of Sponza's shots and no gain in its error ("The
-# patches' emitters read by two sets").
+# of the probes' count would mend for 1 s of Sponza's shots and no gain in its error ("A thin bar
+# under a far emitter, by who reads it").
 EMITTER_RAYS = 9
 EMITTER_MIXED_RAYS = 36
 # The emitters' samples are cast at most CHUNK_RAYS at a time, about 180 bytes a ray: a block of
@@ -153,8 +153,8 @@ class RayCaster:
             return samples.astype(np.float32), disc.astype(np.float32), False
 
         # the first, the more and the second samples of each emitter, read at the points asked
-        # about finely (``_fine_form_factors``); the more are the bake's rays (indexed by patch)
-        # where those are as many
+        # about finely (``_fine_form_factors``); from EMITTER_MIXED_RAYS rays on, the more are the
+        # bake's rays (indexed by patch)
         more = (self._unit_samples, self._unit_disc, True) if rays >= EMITTER_MIXED_RAYS else \
             sample_set(EMITTER_MIXED_RAYS, streams.EMITTER_MIXED_SAMPLES)
         self._fine_sets = (sample_set(EMITTER_RAYS, streams.EMITTER_SAMPLES), more,

@@ -26,6 +26,7 @@ from core.transport.analytic import point_to_triangle
 from core.transport.formfactors import FormFactorEngine
 from core.transport.raycast import RayCaster
 from core.rays.visibility import Visibility
+from core.util.geometry import areas_and_normals
 from tests.core.scenes import box, grid, merge, quad
 
 HEIGHT, LIGHT, BLOCKER, FLOOR = 2.0, 0.25, 0.1, 2.0  # half-widths
@@ -284,23 +285,25 @@ def test_the_nodes_keep_a_thin_bars_shadow_under_a_far_emitter_on_average(rays):
     factor, exactly (``rectangle_factor``). The nodes' two first sets decide for each other where
     the more samples are cast (``joined_shares``), so on average over 48 seeds they keep the shadow,
     at any rays per form factor: the share of it lost, measured over 192 seeds, 0.004 +- 0.022 at
-    16 rays and 0.008 +- 0.022 at 64 (one seed's spread 0.3; bound 0.2, 6 standard errors of 48
-    seeds). The probes deciding for the rest (16 of 64, as the nodes read far emitters from 36
-    rays on before; 4 of 16, as the patches still do) lost 0.68 and 0.92 of it."""
-    emitter = quad([-0.3, -0.3, 2.0], [0, 0.6, 0], [0.6, 0, 0])  # faces down
+    16 rays and 0.008 +- 0.022 at 64 (one seed's spread 0.3; bound 0.2, about 4.5 standard errors
+    of 48 seeds, 0.3 / sqrt(48)). The probes deciding for the rest (16 of 64, as the nodes read far
+    emitters from 36 rays on before; 4 of 16, as the patches still do) lost 0.68 and 0.92 of it.
+    The bar's triangles are patches too, before the emitter's, so that an emitter's samples are
+    looked up by its own index among the emitters, not by its patch's."""
     bar = quad([-0.005, -5, 1.0], [0, 10, 0], [0.01, 0, 0])
-    vertices, triangles = merge(emitter, bar)
+    emitter = quad([-0.3, -0.3, 2.0], [0, 0.6, 0], [0.6, 0, 0])  # faces down
+    vertices, triangles = merge(bar, emitter)
     corners = vertices[triangles]
-    areas = np.full(2, 0.18)
+    areas, normals = areas_and_normals(corners)
     x = np.linspace(-0.03, 0.03, 7)
     points, up = np.c_[x, np.zeros((7, 2))], np.tile([0.0, 0.0, 1.0], (7, 1))
     whole = rectangle_factor(x, 0.0, -0.3, 0.3, -0.3, 0.3, 2.0)
     seen = whole - rectangle_factor(x, 0.0, np.maximum(-0.3, -x - 0.01), np.minimum(0.3, -x + 0.01), -0.3, 0.3, 2.0)
-    receivers, sources = np.repeat(np.arange(7), 2), np.tile([0, 1], 7)
+    receivers, sources = np.repeat(np.arange(7), 2), np.tile([2, 3], 7)
     lost = {}
     for finely in (True, False):
-        readings = [RayCaster(corners[:2], np.tile([0.0, 0.0, -1.0], (2, 1)), areas, Visibility(corners), rays, seed,
-                              patch_owners=np.arange(2), probing=True, emitting=np.ones(2, dtype=bool)).form_factors(
+        readings = [RayCaster(corners, normals, areas, Visibility(corners), rays, seed, patch_owners=np.arange(4),
+                              probing=True, emitting=np.arange(4) >= 2).form_factors(
             points, up, receivers, sources, np.full(7, finely)).reshape(7, 2).sum(axis=1) for seed in range(48)]
         lost[finely] = np.mean((np.mean(readings, axis=0) - seen) / (whole - seen))
     assert abs(lost[True]) < 0.2
