@@ -337,8 +337,9 @@ class DirectLighting:
         softens its cone's edge; 1 for a point light). ``paired`` (one sample a point, as a
         patch's points take a stratum each): k v m over the disc's mean kernel, cos theta / (d^2
         + R^2) (its projected solid angle pi R^2 cos theta / (d^2 + R^2) over its area), whose
-        mean over the strata is the same share, unbiased. And (k,) bool: whether the samples of
-        some kernel disagree (``raycast.unequally_blocked``)."""
+        mean over the strata is the same share, unbiased. And (k,) bool: whether the samples that
+        bring some light (kernel times mask) disagree (``raycast.unequally_blocked``): a spot's
+        samples outside its cone, blocked or not, call for no more."""
         towards = light.position - points
         distance2 = np.einsum("kx,kx->k", towards, towards)
         facing = towards / np.maximum(np.sqrt(distance2), 1e-300)[:, None]
@@ -351,9 +352,9 @@ class DirectLighting:
                   * np.maximum(np.einsum("ksx,kx->ks", offsets, facing), 0.0) / (lengths2 * lengths2))
         share = self._unblocked(starts, offsets, 1.0, jittered=False) if light.casts_shadow \
             else np.ones(offsets.shape[:2])
-        disagree = unequally_blocked(share, kernel > 0)  # the shadow's, not the cone's edge
-        if isinstance(light, SpotLight):
-            share = share * light.cone_mask(-offsets / np.sqrt(lengths2)[..., None])
+        mask = light.cone_mask(-offsets / np.sqrt(lengths2)[..., None]) if isinstance(light, SpotLight) else 1.0
+        disagree = unequally_blocked(share, (kernel * mask) > 0)  # the shadow's edge, not the cone's
+        share = share * mask
         total = kernel.sum(axis=1)
         if paired:
             total = np.maximum(np.einsum("kx,kx->k", normals, facing), 0.0) / (distance2 + light.radius ** 2)
