@@ -5,7 +5,7 @@ Patches are the input triangles, first cut along the lines where other surfaces 
 (``contacts``), split regularly into congruent sub-triangles no longer than the patch size; the
 back of a two-sided triangle is a second set of patches facing the other way. An emitter is split
 finer, so that its light is sampled from at least MIN_LIGHT_PIECES pieces; one that reflects
-nothing, coarser, to about that many.
+nothing, coarser, to about BLACK_LIGHT_PIECES.
 """
 
 from __future__ import annotations
@@ -32,12 +32,15 @@ MAX_LIGHT_DIVISIONS = 4
 # An emitter (a connected set of emitting triangles) is split finer than the patch size until it
 # has MIN_LIGHT_PIECES patches, unless the emitters so split would then be more than this
 # share of the patches (many small lights, or a scene that is mostly light): the split is bounded
-# by the scene, not by its number of lights. One that reflects nothing is split coarser than the
-# patch size, to about MIN_LIGHT_PIECES patches: its radiosity is its emission everywhere, so its
-# patches only sample its light, and the shots from each cost rays at every receiver (Sponza's sky
-# quad: 50 patches of 4 rays -> 18, the shots 6.0 -> 3.0 s, the same error; docs/notes/experiments.md,
-# "Sponza's time by stage").
+# by the scene, not by its number of lights. One that reflects nothing and that the patch size
+# splits into more than MIN_LIGHT_PIECES is split coarser, to about BLACK_LIGHT_PIECES (at least):
+# its radiosity is its emission everywhere, so its patches only sample its light, and the shots
+# from each cost rays at every receiver. Sponza's sky quad: 50 patches of 4 rays -> 18, the shots
+# 6.0 -> 3.0 s, the same error (docs/notes/experiments.md, "Sponza's time by stage"); 18 -> 8 at the
+# nodes' two sets, the rays 108 -> 89.5 million, the error 2.46 -> 2.38 % (seeds 0 to 3), 2 pieces
+# 2.61 / 3.40 % ("Sponza's sky quad in fewer pieces").
 MAX_EMITTER_SHARE = 0.25
+BLACK_LIGHT_PIECES = 8
 # Triangles (or panels) whose longest edge is below this share of the patch size are not cut along
 # contact lines, but cut the larger ones (``contacts.pieces``).
 SMALLEST_CUT = 0.0625
@@ -238,12 +241,12 @@ def _check_patch_count(divisions: np.ndarray, patch_size: float | None) -> None:
 def _emitter_divisions(scene: Scene, corners: np.ndarray, zero_area: np.ndarray, piece_triangle: np.ndarray,
                        divisions: np.ndarray) -> np.ndarray:
     """(pieces,) int: ``divisions`` (by the patch size), those of each emitter's pieces changed so
-    that it has about MIN_LIGHT_PIECES patches. An emitter that ``divisions`` make n patches,
-    fewer than that, is divided light_divisions(n) times more (none is if the emitters so split
-    would then be more than MAX_EMITTER_SHARE of the patches); one that reflects nothing and makes
-    more is divided ceil(d sqrt(MIN_LIGHT_PIECES / n)) times where d were asked, which keeps at
-    least MIN_LIGHT_PIECES patches. An emitter is a connected set of emitting triangles (sharing
-    a vertex)."""
+    that it has at least MIN_LIGHT_PIECES patches, or about BLACK_LIGHT_PIECES. An emitter that
+    ``divisions`` make n patches, fewer than MIN_LIGHT_PIECES, is divided light_divisions(n) times
+    more (none is if the emitters so split would then be more than MAX_EMITTER_SHARE of the
+    patches); one that reflects nothing and makes more is divided ceil(d sqrt(BLACK_LIGHT_PIECES /
+    n)) times where d were asked, which keeps at least BLACK_LIGHT_PIECES patches. An emitter is a
+    connected set of emitting triangles (sharing a vertex)."""
     emitting = np.flatnonzero(scene.emission.any(axis=1) & ~zero_area)
     if len(emitting) == 0:
         return divisions
@@ -265,7 +268,7 @@ def _emitter_divisions(scene: Scene, corners: np.ndarray, zero_area: np.ndarray,
     reflecting = np.bincount(emitter[emitting], weights=scene.reflectance[emitting].sum(axis=1), minlength=count) > 0
     coarser = np.flatnonzero((emitter_patches > MIN_LIGHT_PIECES) & ~reflecting)
     scale = np.ones(count)
-    scale[coarser] = np.sqrt(MIN_LIGHT_PIECES / emitter_patches[coarser])
+    scale[coarser] = np.sqrt(BLACK_LIGHT_PIECES / emitter_patches[coarser])
     black = chosen[scale[piece_emitter[chosen]] < 1]
     result[black] = np.ceil(divisions[black] * scale[piece_emitter[black]]).astype(np.int64)
     return result

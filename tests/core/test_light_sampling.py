@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from core import Scene, bake
-from core.mesh.discretize import MAX_EMITTER_SHARE, discretize
+from core.mesh.discretize import BLACK_LIGHT_PIECES, MAX_EMITTER_SHARE, discretize
 from core.mesh.discretize import MIN_LIGHT_PIECES
 from core.scene.lights import AreaLight, area_light
 from core.transport.direct import MAX_ADDED_LIGHT_PIECES, DirectLighting
@@ -120,22 +120,22 @@ def test_a_small_emitter_is_split_into_enough_patches_a_large_one_is_not():
     np.testing.assert_array_equal(patches, [36, 36, 36, 36, SQUARE_SPLIT // 2, SQUARE_SPLIT // 2])
 
 
-def test_a_black_emitter_is_split_into_about_min_light_pieces_a_reflecting_one_as_the_patch_size_asks():
+def test_a_black_emitter_is_split_into_about_black_light_pieces_a_reflecting_one_as_the_patch_size_asks():
     """A 4 x 4 emitting panel of 2 triangles, whose diagonal (5.7) the patch size 0.25 divides 23
-    times: 2 x 23^2 = 1,058 patches. Black, it is split ceil(23 sqrt(16 / 1,058)) = 3 times per
-    edge, into 18 patches, the fewest of its split into squares over MIN_LIGHT_PIECES; reflecting,
+    times: 2 x 23^2 = 1,058 patches. Black, it is split ceil(23 sqrt(8 / 1,058)) = 2 times per edge,
+    into 8 patches, the fewest of its split into squares of at least BLACK_LIGHT_PIECES; reflecting,
     its patches show the light it reflects and it keeps them."""
     floor = quad([-2, -2, 0], [4, 0, 0], [0, 4, 0])
     panel = quad([-2, -2, 3], [0, 4, 0], [4, 0, 0])  # faces down
     vertices, triangles = merge(floor, panel)
     emission = np.zeros((4, 3))
     emission[2:] = 1.0
-    for panel_reflectance, panel_patches in ((0.0, 2 * 3**2), (0.5, 2 * 23**2)):
+    for panel_reflectance, panel_patches in ((0.0, 2 * 2**2), (0.5, 2 * 23**2)):
         reflectance = np.full((4, 3), 0.5)
         reflectance[2:] = panel_reflectance
         mesh = discretize(Scene(vertices, triangles, reflectance, emission), patch_size=0.25)
         patches = np.bincount(mesh.patch_triangle, minlength=4)
-        assert patches[2:].sum() == panel_patches >= MIN_LIGHT_PIECES
+        assert patches[2:].sum() == panel_patches >= BLACK_LIGHT_PIECES
         np.testing.assert_array_equal(patches[:2], [23**2, 23**2])
 
 
