@@ -17,4 +17,5 @@ from .transport.formfactors import form_factor_matrix
 from .util.progress import BakeCancelled
 
 __all__ = ["Scene", "Environment", "PointLight", "SpotLight", "SunLight", "AreaLight", "area_light", "read_obj", "bake",
-           "BakeResult", "BakeSession", "BakeSettings", "BakeCancelled", "BakeJob", "KNOBS", "PRESETS", "form_factor_matrix"]
+           "BakeResult", "BakeSession", "BakeSettings", "BakeCancelled", "BakeJob", "KNOBS", "PRESETS",
+           "form_factor_matrix"]

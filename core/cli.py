@@ -63,7 +63,8 @@ def main(argv: list[str] | None = None) -> int:
     else:
         work = f"{stats['iterations']:,} iterations, error bound {stats['error_bound']:.2g}"
     print(f"  {stats['method']} form factors, {stats['solver']} solver: {work}")
-    print(f"  estimated error {100 * stats['error_estimate']['total']:.2g}% (RMS over the vertex colours, of their mean)")
+    print(f"  estimated error {100 * stats['error_estimate']['total']:.2g}% "
+          "(RMS over the vertex colours, of their mean)")
     print(f"  {stats['rays_cast']:,} rays; {seconds}")
     mean = np.average(result.triangle_radiosity, axis=0, weights=areas_and_normals(scene.vertices[scene.triangles])[0])
     print(f"  mean radiosity (area-weighted, linear RGB): {mean[0]:.4f} {mean[1]:.4f} {mean[2]:.4f}")

@@ -171,7 +171,8 @@ def extract(depsgraph, two_sided: bool = True, shading_normals: bool = True,
     material = np.concatenate(builder.material)
     triangles = np.concatenate(builder.triangles)
     reflects, emits = np.concatenate(builder.reflects), np.concatenate(builder.emits)
-    mapped_reflectance, mapped_emission = np.concatenate(builder.reflectance_maps), np.concatenate(builder.emission_maps)
+    mapped_reflectance, mapped_emission = (np.concatenate(builder.reflectance_maps),
+                                           np.concatenate(builder.emission_maps))
     reflectance = np.where(np.isnan(mapped_reflectance), reflectance[material],
                            np.clip(mapped_reflectance, 0.0, MAX_REFLECTANCE))
     emission = np.where(np.isnan(mapped_emission), emission[material], np.maximum(mapped_emission, 0.0))
@@ -334,8 +335,9 @@ def _add_light(builder: _Builder, obj, matrix: np.ndarray) -> None:
         builder.lights.append(PointLight(position, power, light.shadow_soft_size, casts_shadow=shadows,
                                          soft_falloff=light.use_soft_falloff))
     elif light.type == "SPOT":
-        builder.lights.append(SpotLight(position, axis, power, light.spot_size, light.spot_blend, light.shadow_soft_size,
-                                        casts_shadow=shadows, soft_falloff=light.use_soft_falloff))
+        builder.lights.append(SpotLight(position, axis, power, light.spot_size, light.spot_blend,
+                                        light.shadow_soft_size, casts_shadow=shadows,
+                                        soft_falloff=light.use_soft_falloff))
     elif light.type == "SUN":
         builder.lights.append(SunLight(axis, power, light.angle, casts_shadow=shadows))
     elif light.type == "AREA":

@@ -57,7 +57,8 @@ def read_as_rendered(scene, view_layer, read: Callable[[object], Result]) -> Res
         raise ValueError(f"view layer '{view_layer.name}' is disabled for rendering (Use for Rendering): "
                          "enable it, or bake from a view layer that renders")
     had_result = any(image.type == "RENDER_RESULT" for image in bpy.data.images)
-    saved = [(getattr(scene, owner), name, getattr(getattr(scene, owner), name)) for owner, name, _ in _READING_SETTINGS]
+    saved = [(getattr(scene, owner), name, getattr(getattr(scene, owner), name))
+             for owner, name, _ in _READING_SETTINGS]
     camera = None
     pending = RADIOSITY_RE_scene_reader.pending
     pending.update(view_layer=view_layer.name, read=read)

@@ -6,7 +6,8 @@ Each scene runs in a fresh process: a first bake in a session, then for each cha
 that session (timed) and a fresh ``bake`` of the changed scene (its truth; not in the session).
 The targets (issues 21 and 22): a re-solve takes at most 10 % of the first bake and matches the
 fresh bake within the fresh bake's own error estimate; a Live update of the sample Cornell box
-(reading the scene, re-solving, writing the colours) takes at most LIVE_TARGET. Ratios of one run; the machine is shared and noisy.
+(reading the scene, re-solving, writing the colours) takes at most LIVE_TARGET. Ratios of one run;
+the machine is shared and noisy.
 """
 
 from __future__ import annotations

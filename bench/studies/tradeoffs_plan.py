@@ -103,15 +103,15 @@ FULL = {
         f"shots costs {LARGE_SCENE_SHOOTING:,} form factors or more (Monte Carlo \"Auto\", core/settings.py): the "
         "emitters shoot, "
         "and the light they leave goes on by Monte Carlo (particles from the patches, then a final gather at the "
-        f"vertices: core/solve/montecarlo.py, core/solve/gather.py) with {LARGE_SCENE_MONTE_CARLO_RAYS} gather rays per vertex unless swept, "
-        "and 4 rays per form factor unless swept (as docs/results/sponza.md). `max_shots`: the brightest patches shoot "
-        "too, this many shots in all, before Monte Carlo takes the rest. `near_field` off: every patch is read "
-        "as its mean, also where the gather's rays land close. The patch size changes only the largest triangles (patches are never larger than the "
-        "input triangles and their pieces). Left out: Jacobi and Gauss-Seidel (a P x P matrix, hundreds of GB); "
-        "the hemicube, whose gather at the vertices alone takes minutes here (dense rows, O(vertices x "
-        "patches)); the presets, whose tolerances no bake reaches in minutes. The yardstick is not a bake of "
-        "ours but path tracing at random corners (above), so these errors are against the scene's light, as "
-        "docs/results/path_traced.md measures Cycles' bakes and ours."),
+        f"vertices: core/solve/montecarlo.py, core/solve/gather.py) with {LARGE_SCENE_MONTE_CARLO_RAYS} gather rays "
+        "per vertex unless swept, and 4 rays per form factor unless swept (as docs/results/sponza.md). `max_shots`: "
+        "the brightest patches shoot too, this many shots in all, before Monte Carlo takes the rest. `near_field` off: "
+        "every patch is read as its mean, also where the gather's rays land close. The patch size changes only the "
+        "largest triangles (patches are never larger than the input triangles and their pieces). Left out: Jacobi and "
+        "Gauss-Seidel (a P x P matrix, hundreds of GB); the hemicube, whose gather at the vertices alone takes minutes "
+        "here (dense rows, O(vertices x patches)); the presets, whose tolerances no bake reaches in minutes. The "
+        "yardstick is not a bake of ours but path tracing at random corners (above), so these errors are against the "
+        "scene's light, as docs/results/path_traced.md measures Cycles' bakes and ours."),
 }
 QUICK = {
     "parallel_squares": Sweep(divisions=(2, 4), values={"hemicube_resolution": (16,), "rays_per_form_factor": (4,),

@@ -365,9 +365,9 @@ FINDINGS: list[str] = [
     "bench/cycles_rescore.py) on that run's Cycles answer: the contact cuts alone took the default bake to 4.1 %, "
     "with the near field to 0.86 % (every ray cast; probe rays, the default since, add about 0.1 %).",
     "- Before the touching patches were read at the right place (core/reconstruct/touching.py; core of commit "
-    "d002675, the previous run of this script, 2026-11-22): the default bake was 0.77 % from Cycles' converged answer (1.04 s) "
-    "and our converged reference 0.56 % (1.3 x Cycles' noise), 51 % of the default's squared error on the "
-    "corners where two surfaces meet (1.47 % there); the blocks' bottom corners were up to 35 % off (the "
+    "d002675, the previous run of this script, 2026-11-22): the default bake was 0.77 % from Cycles' converged "
+    "answer (1.04 s) and our converged reference 0.56 % (1.3 x Cycles' noise), 51 % of the default's squared "
+    "error on the corners where two surfaces meet (1.47 % there); the blocks' bottom corners were up to 35 % off (the "
     "short block's 16 touching corners 4.1 % RMS for the reference). A brute-force final gather at the worst "
     "corners (one more bounce, gathered exactly at each ray's hit point) came within 2-4 % of Cycles there, "
     "which located the error in the floor's light right at the blocks' feet.",

@@ -16,7 +16,8 @@ from typing import Callable
 import numpy as np
 
 from ..scene import Scene
-from ..util.geometry import ENCLOSING_TOLERANCE, areas_and_normals, enclosing, longest_edges, subdivide, triangle_corners
+from ..util.geometry import (ENCLOSING_TOLERANCE, areas_and_normals, enclosing, longest_edges, subdivide,
+                             triangle_corners)
 from . import contacts, panels as panelling
 from .nodes import receiver_nodes
 from .panels import Panels

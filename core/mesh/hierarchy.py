@@ -124,7 +124,6 @@ def _radix_tree(key: np.ndarray):
     level = 0
     leaf_depth = np.zeros(count, dtype=np.int64)
     while len(begin):
-        ids = made + np.arange(len(begin))
         made += len(begin)
         differ = key[begin] ^ key[end]
         split = (begin + end) // 2  # equal keys: halve
@@ -189,7 +188,8 @@ def _with_properties(mesh: Discretization, order, left, right, first, last, dept
     flat = np.linalg.norm(vector_area, axis=1) >= FLAT * area
     root = count if total > 1 else 0
     return Hierarchy(order, left, right, parent, depth, first, last, area, vector_area, (low + high) / 2,
-                     np.linalg.norm(high - low, axis=1) / 2, moment / safe, emitted / safe, reflected / safe, flat, root)
+                     np.linalg.norm(high - low, axis=1) / 2, moment / safe, emitted / safe, reflected / safe, flat,
+                     root)
 
 
 def _internal_by_depth(left: np.ndarray, depth: np.ndarray) -> list[np.ndarray]:

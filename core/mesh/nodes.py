@@ -28,8 +28,9 @@ SAME_NORMAL = 1e-2
 
 def receiver_nodes(scene: Scene, crease_angle: float,
                    corner_points: np.ndarray | None = None) -> dict[str, np.ndarray]:
-    """Nodes of the corners of ``scene``'s triangles (``crease_angle`` in radians), evaluated at ``corner_points`` (T, 3, 3)
-    (default: the corners themselves) moved into their faces (``inset``), on or in front of each."""
+    """Nodes of the corners of ``scene``'s triangles (``crease_angle`` in radians), evaluated at
+    ``corner_points`` (T, 3, 3) (default: the corners themselves) moved into their faces
+    (``inset``), on or in front of each."""
     corners = triangle_corners(scene.vertices, scene.triangles)
     areas, normals = areas_and_normals(corners)
     zero_area = degenerate(corners)

@@ -10,10 +10,11 @@ within float32 rounding of the edge, which a random ray almost never does (Sponz
 rays, the breakfast room 79 of 218 million; 14 of 400,000 from a node beside a room's corner),
 and a ray along a grid (a hemicube's, a sun's, from one vertex to another) may.
 
-The triangles are re-centred and scaled to unit size before they become float32 for Embree, and ray offsets are a fixed fraction of that unit size, so results do not
-depend on the scene's scale. embreex releases the GIL while it traces, so callers run batches from several threads (the
-NumPy tracer is safe there too, but gains little: see ``numpy_tracer``); Embree's scenes are
-filled and built with the GIL released too (``embree_build``), so other threads run meanwhile.
+The triangles are re-centred and scaled to unit size before they become float32 for Embree, and ray
+offsets are a fixed fraction of that unit size, so results do not depend on the scene's scale.
+embreex releases the GIL while it traces, so callers run batches from several threads (the NumPy
+tracer is safe there too, but gains little: see ``numpy_tracer``); Embree's scenes are filled and
+built with the GIL released too (``embree_build``), so other threads run meanwhile.
 """
 
 from __future__ import annotations
@@ -27,8 +28,8 @@ from ..util.overlaps import coplanar_overlap_pairs
 from . import embree_build
 from .numpy_tracer import NumpyTracer
 
-# Rays start and stop this far (in unit space, where the scene's extent is 1) from their end points, so a ray does not hit the surface it leaves or the one it aims at (float32
-# resolves about 6e-8 there).
+# Rays start and stop this far (in unit space, where the scene's extent is 1) from their end points, so a
+# ray does not hit the surface it leaves or the one it aims at (float32 resolves about 6e-8 there).
 RAY_EPSILON = 1e-5
 # Where another surface lies nearer than RAY_EPSILON along a point's normal (a face within a hair of
 # another solid, laid on it or through it), its rays start half-way to that surface instead, but no

@@ -6,5 +6,5 @@ from .model import Scene
 from .objfile import read_obj, subdivide
 from .plyfile import write_ply
 
-__all__ = ["Scene", "Environment", "PointLight", "SpotLight", "SunLight", "AreaLight", "area_light", "read_obj", "subdivide",
-           "write_ply"]
+__all__ = ["Scene", "Environment", "PointLight", "SpotLight", "SunLight", "AreaLight", "area_light", "read_obj",
+           "subdivide", "write_ply"]

@@ -208,8 +208,8 @@ class Refiner:
         # a node across the other's plane is seen in part, which its centre does not tell: split
         # unless it carries little, and then averaged over the rays' directions (``_cluster``)
         across = r_across | s_across
-        need = ~exact & ((carried > threshold) | (distance < SEPARATION * reach) | (across & (carried > PARTIAL * threshold))) \
-            & (split_r | split_s)
+        need = ~exact & ((carried > threshold) | (distance < SEPARATION * reach)
+                         | (across & (carried > PARTIAL * threshold))) & (split_r | split_s)
         links = []
         if exact.any():
             links.append(self._exact(receivers[exact], sources[exact]))
@@ -304,7 +304,8 @@ def harmonics(directions: np.ndarray) -> np.ndarray:
                     axis=1)
 
 
-def gathered(hierarchy: Hierarchy, links: Links, radiosity: np.ndarray, receivers: int) -> tuple[np.ndarray, np.ndarray]:
+def gathered(hierarchy: Hierarchy, links: Links, radiosity: np.ndarray,
+             receivers: int) -> tuple[np.ndarray, np.ndarray]:
     """What each of ``receivers`` receivers gathers over ``links`` from node ``radiosity`` (H, C):
     (receivers, C) through flat links, and (receivers, 9, C) spherical-harmonic coefficients of
     the light from the other links."""
@@ -375,7 +376,8 @@ class Solver:
         self.leaf_basis = harmonics(mesh.patch_normals[hierarchy.patch]) * SH_CONVOLUTION
         self.levels = hierarchy.by_depth()
         self.closed = bool(enclosed(light.engine.visibility, light.engine.receiving_points[hierarchy.patch],
-                                    mesh.patch_normals[hierarchy.patch], streams.generator(seed, streams.CLOSURE_RAYS)).all())
+                                    mesh.patch_normals[hierarchy.patch],
+                                    streams.generator(seed, streams.CLOSURE_RAYS)).all())
         self.parts: list[tuple[Links, np.ndarray]] = []
 
     def link(self, links: Links) -> None:
@@ -467,7 +469,8 @@ def solve(light: ArrivingLight, patch_direct: np.ndarray, node_direct: np.ndarra
     solver.link(links)
     radiosity, stats = stages.run("solving", (0.3, 0.45), solver.iterate, radiosity, settings.tolerance,
                                   timer="solve")
-    threshold = settings.link_tolerance * max(radiosity_scale(mesh, _unsorted(hierarchy, radiosity)), np.finfo(float).tiny)
+    threshold = settings.link_tolerance * max(radiosity_scale(mesh, _unsorted(hierarchy, radiosity)),
+                                              np.finfo(float).tiny)
     links = stages.run("linking", (0.45, 0.65), tree.refine, (links.receiver, links.source), radiosity, threshold,
                        timer="links")
     solver.link(links)

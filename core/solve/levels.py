@@ -267,7 +267,8 @@ class _Levels:
         engine, settings, state = self.light.engine, self.settings, self.state
         mesh = engine.mesh
         visibility = engine.visibility
-        if len(visibility.triangle_normals) != mesh.front_patch_count:  # refined: the rays' triangles must be the patches
+        # refined: the rays' triangles must be the patches
+        if len(visibility.triangle_normals) != mesh.front_patch_count:
             visibility = Visibility(mesh.patch_corners[: mesh.front_patch_count], two_sided=mesh.back_of_front >= 0,
                                     owners=mesh.patch_triangle[: mesh.front_patch_count], casting=mesh.front_casts,
                                     opacity=mesh.front_opacity)

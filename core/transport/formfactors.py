@@ -237,7 +237,8 @@ class FormFactorEngine:
         in_flight = parallel.THREADS + 1
         if self.method == "hemicube":
             rows = self._rows_per_block(0)
-            return in_flight * (rows * len(hemicube.pixels(self.resolution)[1]) * 100 + rows * self.mesh.patch_count * 16)
+            return in_flight * (rows * len(hemicube.pixels(self.resolution)[1]) * 100
+                                + rows * self.mesh.patch_count * 16)
         samples = self.raycaster.sample_bytes  # kept for the whole bake
         return samples + in_flight * self._pairs_per_block() * (200 + 32 * self.raycaster.rays)
 

@@ -6,9 +6,9 @@ seconds for a million rows, holding the GIL all the while (no progress can be re
 
 Each row is hashed to one 64-bit word (each of its 64-bit words mixed by the SplitMix64
 finaliser, Steele, Lea and Flood 2014, which spreads a float's high bits into the low ones,
-then times a fixed odd multiplier per column, summed with wrap-around), the hashes are labelled by ``np.unique``, and every row is then checked against
-its label's first row; a collision (two different rows sharing a hash) falls back to
-``sorted_labels``, so the result never depends on luck.
+then times a fixed odd multiplier per column, summed with wrap-around), the hashes are labelled by
+``np.unique``, and every row is then checked against its label's first row; a collision (two
+different rows sharing a hash) falls back to ``sorted_labels``, so the result never depends on luck.
 """
 
 from __future__ import annotations

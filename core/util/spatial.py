@@ -89,7 +89,8 @@ def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray, 
 
 
 def points_in_boxes(points: np.ndarray, low: np.ndarray, high: np.ndarray,
-                    keep: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+                    keep: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
     """Index pairs (i, j), each once, of the points (n, 3) lying in or on the boxes (corners
     (m, 3)) for which ``keep(i, j)`` (index arrays to a bool mask; None: all) holds, in a fixed
     order. Each box is listed in the cells it overlaps of a grid of cells POINT_CELL x the median
@@ -186,7 +187,8 @@ class _PointGrid:
 def _joined(parts: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
     """The (first, second) index pairs of ``parts`` one after another."""
     empty = np.zeros(0, dtype=np.int64)
-    return np.concatenate([empty, *(first for first, _ in parts)]), np.concatenate([empty, *(second for _, second in parts)])
+    return (np.concatenate([empty, *(first for first, _ in parts)]),
+            np.concatenate([empty, *(second for _, second in parts)]))
 
 
 def _cell_size(sizes: np.ndarray, spread: float, times: float) -> float:

@@ -171,7 +171,8 @@ def test_report_names_every_approximation(addon):
     image.pixels.foreach_set(np.tile([0.2, 0.4, 0.6, 1.0], 16).astype(np.float32))
     texture = textured.node_tree.nodes.new("ShaderNodeTexImage")
     texture.image = image
-    textured.node_tree.links.new(texture.outputs["Color"], textured.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    textured.node_tree.links.new(texture.outputs["Color"],
+                                 textured.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
     odd = bpy.data.materials.new("Odd")
     odd.use_nodes = True
     nodes = odd.node_tree.nodes

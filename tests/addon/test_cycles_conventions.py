@@ -265,7 +265,8 @@ def test_a_light_with_cast_shadow_off_lights_through_a_roof(kind):
         expected = (0.5 * 30.0 * offset[:, 2] / np.sqrt(distance2) / (4 * math.pi**2 * (distance2 + 0.09)))[:, None]
     if kind == "AREA":
         radiance = 30.0 / math.pi
-        expected = (0.5 * radiance * np.array([b3_anywhere(x, y, -0.5, 0.5, -0.5, 0.5, 2.0) for x, y, _ in points]))[:, None]
+        expected = (0.5 * radiance
+                    * np.array([b3_anywhere(x, y, -0.5, 0.5, -0.5, 0.5, 2.0) for x, y, _ in points]))[:, None]
     np.testing.assert_allclose(colours[:, :3], np.broadcast_to(expected, colours[:, :3].shape), rtol=RTOL)
 
 

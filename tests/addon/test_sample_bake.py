@@ -18,10 +18,10 @@ the ones before were written on an Intel Xeon, and when the nodes came to spend 
 emitter where the first ones disagree (core/transport/raycast.py, CLOSE_MIXED_RAYS and
 EMITTER_MIXED_RAYS), at most 1.3e-4 (0.55 -> 0.52 %), and when two first sets came to decide for
 each other (``raycast.joined_shares``), at most 5.0e-5 (0.52 -> 0.53 %). On a machine of the same
-kind the colours must be equal bit for bit. Elsewhere NumPy's SIMD kernels and the BLAS may round differently: turning off
-AVX-512 and forcing OpenBLAS's Haswell kernels moved the colours by at most 1e-10 of their largest,
-so other machines are held to 1e-6 of it, far below what any change of the method moves (another
-seed moves them by percents).
+kind the colours must be equal bit for bit. Elsewhere NumPy's SIMD kernels and the BLAS may round
+differently: turning off AVX-512 and forcing OpenBLAS's Haswell kernels moved the colours by at most
+1e-10 of their largest, so other machines are held to 1e-6 of it, far below what any change of the
+method moves (another seed moves them by percents).
 """
 
 from __future__ import annotations

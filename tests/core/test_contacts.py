@@ -125,7 +125,8 @@ def test_each_contact_segment_cuts_only_the_pieces_it_runs_through():
         for along, across in ((0, 1), (1, 0)):  # edges x = const over a footprint's y range, and y = const
             for edge in np.concatenate([starts, starts + size]):
                 for first in starts:
-                    cross = (floor[..., along].min(axis=1) < edge - 1e-9) & (floor[..., along].max(axis=1) > edge + 1e-9)
+                    cross = (floor[..., along].min(axis=1) < edge - 1e-9) & \
+                        (floor[..., along].max(axis=1) > edge + 1e-9)
                     over = (floor[..., across].min(axis=1) < first + size - 1e-9) & \
                         (floor[..., across].max(axis=1) > first + 1e-9)
                     assert not (cross & over).any(), "a piece straddles a footprint edge"

@@ -423,7 +423,8 @@ def sky_by_a_wall(seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     points, colours = vertex_values(scene, result.corner_colors, -2)
     near = np.abs(points[:, 1] + 0.5) < 1e-9
     factor = sum(point_to_triangle(points[near], np.tile([0.0, 0, 1], (near.sum(), 1)),
-                                   np.repeat(corners[None], near.sum(), axis=0)) for corners in vertices[triangles[-2:]])
+                                   np.repeat(corners[None], near.sum(), axis=0))
+                 for corners in vertices[triangles[-2:]])
     return colours[near, 0], RHO * (1 - factor), factor
 
 

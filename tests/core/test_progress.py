@@ -90,7 +90,8 @@ def test_relayed_work_is_heard_while_it_is_inside_one_long_step():
     assert times[-1] - times[0] >= LONG_STEP * 0.9
     assert np.diff(times).max() <= 0.2
     assert calls[-1][1:] == (1.0, "done")
-    assert {(fraction, message) for _, fraction, message in calls[:-1]} <= {(0.0, "starting"), (0.5, "before the long step")}
+    assert ({(fraction, message) for _, fraction, message in calls[:-1]}
+            <= {(0.0, "starting"), (0.5, "before the long step")})
 
 
 def test_relayed_work_is_heard_from_its_first_report_even_when_the_caller_wakes_late():

@@ -412,7 +412,8 @@ def test_core_imports_and_bakes_without_embreex():
         "result = core.bake(lit_room())\n"
         "print(json.dumps({'backend': default_backend(), 'colors': result.corner_colors.tolist()}))\n"
     )
-    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120, check=False)
+    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120,
+                          check=False)
     assert done.returncode == 0, done.stderr
     output = json.loads(done.stdout.splitlines()[-1])
     assert output["backend"] == "numpy"

@@ -178,7 +178,8 @@ def test_a_monte_carlo_resolve_reads_again_the_gather_of_nodes_that_gather_toget
 
 def relative_rms(result, truth) -> float:
     """The RMS of the corner colours' difference over that of ``truth``'s colours."""
-    return float(np.sqrt(((result.corner_colors - truth.corner_colors) ** 2).mean() / (truth.corner_colors ** 2).mean()))
+    return float(np.sqrt(((result.corner_colors - truth.corner_colors) ** 2).mean()
+                         / (truth.corner_colors ** 2).mean()))
 
 
 def test_the_light_of_each_source_alone_adds_up_to_all_of_it():

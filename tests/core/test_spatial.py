@@ -56,8 +56,8 @@ def test_boxes_against_themselves_and_a_filter_give_exactly_the_touching_pairs_i
 
 @pytest.mark.parametrize("grid", [True, False])
 def test_points_in_boxes_finds_exactly_the_points_inside_and_applies_the_filter(monkeypatch, grid):
-    """Points against boxes (grids of several sizes, and the direct test) give the brute-force pairs, each once; ``keep`` sees only pairs inside and its
-    verdict stands."""
+    """Points against boxes (grids of several sizes, and the direct test) give the brute-force
+    pairs, each once; ``keep`` sees only pairs inside and its verdict stands."""
     if grid:
         monkeypatch.setattr(spatial, "EVERY_PAIR", 0)
         monkeypatch.setattr(spatial, "BOX_SPAN", 2)  # many boxes on coarser grids

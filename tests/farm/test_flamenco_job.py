@@ -21,7 +21,8 @@ def blender_commands(compiled: dict) -> list[tuple[str, list[str]]]:
         [command] = task["commands"]
         assert command["name"] == "blender-render"
         parameters = command["parameters"]
-        assert (parameters["exe"], parameters["exeArgs"], parameters["argsBefore"]) == ("{blender}", "{blenderArgs}", [])
+        assert ((parameters["exe"], parameters["exeArgs"], parameters["argsBefore"])
+                == ("{blender}", "{blenderArgs}", []))
         commands.append((parameters["blendfile"], parameters["args"]))
     return commands
 
