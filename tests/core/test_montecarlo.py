@@ -37,13 +37,18 @@ def test_cosine_directions_are_unit_and_cosine_distributed():
 
 def test_cosine_directions_of_many_points_per_normal_are_those_of_each_point_alone():
     """Points (n, K, 2) about n normals: each normal's frame built once gives the directions its
-    K points get one by one (n K, 2) about the normal repeated, to the bit."""
+    K points get one by one (n K, 2) about the normal repeated, to rounding. Not to the bit: the
+    frame is applied by matrix products, whose sums of three products BLAS may round in another
+    order (or fused) for (K, 3) than for (1, 3) rows, a few units in the last place of 1 (bit for
+    bit on the machines this ran on until 2026-12-07, then 2.2e-16 apart on one whose OpenBLAS,
+    NumPy 1.26.4's, chose other kernels)."""
     rng = np.random.default_rng(3)
     normals = rng.normal(size=(50, 3))
     normals /= np.linalg.norm(normals, axis=1)[:, None]
     uv = rng.random((50, 16, 2))
-    np.testing.assert_array_equal(cosine_directions(normals, uv).reshape(-1, 3),
-                                  cosine_directions(np.repeat(normals, 16, axis=0), uv.reshape(-1, 2)))
+    np.testing.assert_allclose(cosine_directions(normals, uv).reshape(-1, 3),
+                               cosine_directions(np.repeat(normals, 16, axis=0), uv.reshape(-1, 2)),
+                               rtol=0, atol=4 * np.finfo(float).eps)
 
 
 def test_uniform_points_lie_in_the_triangle_with_its_centroid_as_their_mean():
