@@ -23,7 +23,8 @@ LISTED_CELLS = 2.0
 POINT_CELL = 0.5
 # Candidate pairs made at once (about 50 bytes each): bounds the memory of a dense cell.
 PAIRS_PER_BLOCK = 1 << 22
-# Boxes whose cells are listed at once by ``points_in_boxes`` (about 40 bytes per cell).
+# Cells of boxes listed at once by ``points_in_boxes``, and queries of one block of
+# ``overlapping_boxes`` (about 40 and 130 bytes each).
 LISTINGS_PER_BLOCK = 1 << 20
 # Up to this many pairs in all, every pair is tested: faster than building the grid.
 EVERY_PAIR = 1 << 20
@@ -70,10 +71,9 @@ def overlapping_boxes(low_a: np.ndarray, high_a: np.ndarray, low_b: np.ndarray, 
         if not itself:
             jobs.append((low_b, high_b, np.flatnonzero(level_b < level), low_a, high_a,
                          np.flatnonzero(level_a == level), cell, True))
-    blocks = []
-    for job in jobs:
-        heartbeat()
-        blocks += [(block, job[7]) for block in _cell_pairs(*job[:7], origin)]
+    # each job's listings are made on the pool too, ahead of the blocks that read them
+    made = parallel.map_ordered(lambda job: _cell_pairs(*job[:7], origin), jobs)
+    blocks = ((block, job[7]) for job, job_blocks in zip(jobs, made) for block in job_blocks)
 
     def key(block, swapped: bool) -> np.ndarray:
         found, listed = block()
@@ -159,17 +159,14 @@ class _PointGrid:
     def __init__(self, points: np.ndarray, low: np.ndarray, high: np.ndarray, origin: np.ndarray,
                  cell: float) -> None:
         self.cells, self.spans = _cells(low, high, origin, cell)
-        point_cells = np.floor((points - origin) / cell).astype(np.int64)
-        self.shape = tuple(np.maximum(point_cells.max(axis=0), (self.cells + self.spans - 1).max(axis=0)) + 1)
-        point_keys = np.ravel_multi_index(point_cells.T, self.shape)
+        point_keys = _cell_keys(np.floor((points - origin) / cell).astype(np.int64))
         self.by_cell = np.argsort(point_keys, kind="stable")
         self.sorted_keys = point_keys[self.by_cell]
 
     def pairs(self, boxes: np.ndarray, accept) -> tuple[np.ndarray, np.ndarray]:
         """``accept(points, boxes)`` of the candidate pairs of ``boxes``: the points in their cells,
         at most PAIRS_PER_BLOCK at once."""
-        listing, owner = _listings(self.cells[boxes], self.spans[boxes])
-        keys = np.ravel_multi_index(listing.T, self.shape)
+        keys, owner, _ = _listed_cells(self.cells[boxes], self.spans[boxes])
         start = np.searchsorted(self.sorted_keys, keys, side="left")
         count = np.searchsorted(self.sorted_keys, keys, side="right") - start
         total = np.cumsum(count)
@@ -217,53 +214,87 @@ def _levels(sizes: np.ndarray, base: float, spread: float) -> np.ndarray:
 def _cell_pairs(low_q, high_q, queried, low_l, high_l, listed, cell: float, origin: np.ndarray):
     """Blocks of work, each a function giving touching pairs (q, l) as index arrays, of boxes
     ``queried`` and ``listed``, both listed in every cell of size ``cell`` they overlap: a pair
-    counts in the cell holding the lowest corner of the boxes' overlap, where both are listed.
-    That cell is, axis by axis, the later of the two boxes' first cells, tested on the pairs whose
-    boxes touch; the boxes are tested first, axis by axis on the pairs left, as most candidates
-    part along one axis (a small box beside a wall, in the wall's cell)."""
+    counts in the one cell holding the lowest corner of the boxes' overlap, where both are listed.
+    That cell is, axis by axis, the later of the two boxes' first cells, so each pair is made there
+    alone: a listing of l carries a flag per axis, whether its cell is l's first along it
+    (``_listed_cells``), and a query of q in a cell past q's first along an axis reads only the
+    listings flagged on it (``_ACCEPTED``). The boxes are then tested axis by axis on the pairs
+    left, as most candidates part along one axis (a small box beside a wall, in the wall's cell)."""
     if len(queried) == 0 or len(listed) == 0:
         return []
-    first_l, spans_l = _cells(low_l[listed], high_l[listed], origin, cell)
-    first_q, spans_q = _cells(low_q[queried], high_q[queried], origin, cell)
-    cells_l, owner_l = _listings(first_l, spans_l)
-    cells_q, owner_q = _listings(first_q, spans_q)
-    key_l, key_q = _cell_keys(cells_l), _cell_keys(cells_q)
-    order = np.argsort(key_l, kind="stable")
-    key_l, owner_l = key_l[order], owner_l[order]
-    start = np.searchsorted(key_l, key_q, side="left")
-    count = np.searchsorted(key_l, key_q, side="right") - start
-    total = np.cumsum(count)
-    axes = [(np.ascontiguousarray(first_q[:, axis]), np.ascontiguousarray(first_l[:, axis]),
-             np.ascontiguousarray(cells_q[:, axis])) for axis in range(3)]
+    keys_l, owner_l, flags_l = _listed_cells(*_cells(low_l[listed], high_l[listed], origin, cell))
+    keys_q, owner_q, flags_q = _listed_cells(*_cells(low_q[queried], high_q[queried], origin, cell))
+    # the listings sorted by cell, then flags: the cell keys, and each cell's buckets, one per flags
+    sorted_keys = keys_l * _FLAGS + flags_l
+    order = np.argsort(sorted_keys, kind="stable")
+    listed_cells, owner_l = sorted_keys[order] // _FLAGS, owner_l[order]
+    new_cell = np.concatenate([[True], listed_cells[1:] != listed_cells[:-1]])
+    cell_keys = listed_cells[new_cell]
+    bucket = (np.cumsum(new_cell) - 1) * _FLAGS + flags_l[order]
+    bucket_ends = np.cumsum(np.bincount(bucket, minlength=len(cell_keys) * _FLAGS))
+    bucket_starts = np.concatenate([[0], bucket_ends[:-1]]).reshape(-1, _FLAGS)
+    bucket_counts = np.diff(bucket_ends, prepend=0).reshape(-1, _FLAGS)
+    row = np.minimum(np.searchsorted(cell_keys, keys_q), len(cell_keys) - 1)
+    shared = cell_keys[row] == keys_q
+    row, listing_q = row[shared], np.flatnonzero(shared)
+    needed = flags_q[listing_q] ^ (_FLAGS - 1)  # the axes along which the query's cell is past its box's first
+
+    def buckets(chunk: slice) -> tuple[np.ndarray, np.ndarray]:
+        """(k, 8) start and count of the listings each query of ``chunk`` reads, bucket by bucket."""
+        return bucket_starts[row[chunk]], np.where(_ACCEPTED[needed[chunk]], bucket_counts[row[chunk]], 0)
+
+    total = np.cumsum(np.concatenate([buckets(slice(begin, begin + LISTINGS_PER_BLOCK))[1].sum(axis=1)
+                                      for begin in range(0, len(row), LISTINGS_PER_BLOCK)] or [np.zeros(0, int)]))
     sides = [(np.ascontiguousarray(low_q[queried, axis]), np.ascontiguousarray(high_q[queried, axis]),
               np.ascontiguousarray(low_l[listed, axis]), np.ascontiguousarray(high_l[listed, axis]))
              for axis in range(3)]
 
     def block(chunk: slice) -> tuple[np.ndarray, np.ndarray]:
-        run = runs(count[chunk])
-        listing = chunk.start + run  # the query's listing: its box and the cell
-        second = owner_l[start[listing] + ranks(count[chunk], run)]
-        first = owner_q[listing]
+        start, count = buckets(chunk)
+        run = runs(count.ravel())
+        second = owner_l[start.ravel()[run] + ranks(count.ravel(), run)]
+        first = owner_q[listing_q[chunk.start + run // _FLAGS]]
         for low_first, high_first, low_second, high_second in sides:  # axis by axis, on the pairs left
             touch = (low_first[first] <= high_second[second]) & (low_second[second] <= high_first[first])
-            first, second, listing = first[touch], second[touch], listing[touch]
-        for first_cells, second_cells, cells in axes:  # the pair's cell is this one
-            here = np.maximum(first_cells[first], second_cells[second]) == cells[listing]
-            first, second, listing = first[here], second[here], listing[here]
+            first, second = first[touch], second[touch]
         return queried[first], listed[second]
 
     blocks, begin = [], 0
-    while begin < len(key_q):  # at most PAIRS_PER_BLOCK candidate pairs at once
+    while begin < len(row):  # at most PAIRS_PER_BLOCK candidate pairs and LISTINGS_PER_BLOCK queries at once
         end = max(begin + 1, int(np.searchsorted(total, (total[begin - 1] if begin else 0) + PAIRS_PER_BLOCK)))
+        end = min(end, begin + LISTINGS_PER_BLOCK)
         blocks.append(lambda chunk=slice(begin, end): block(chunk))
         begin = end
     return blocks
 
 
+# A listing's flags: bit a set where its cell is its box's first along axis a.
+_FLAGS = 8
+# _ACCEPTED[needed, flags]: a query needing the flags ``needed`` reads listings whose flags hold them all.
+_ACCEPTED = (np.arange(_FLAGS)[None, :] & np.arange(_FLAGS)[:, None]) == np.arange(_FLAGS)[:, None]
+
+
+def _listed_cells(first: np.ndarray, spans: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(L,) the key (``_cell_keys``) of each grid cell of boxes whose first cells are ``first``
+    (n, 3) and extents in cells ``spans`` (n, 3), (L,) the box of each, and (L,) its flags: bit a
+    set where the cell is the box's first along axis a."""
+    counts = spans.prod(axis=1)
+    owner = runs(counts)
+    offset = ranks(counts, owner)
+    across, along = (spans[:, 1] * spans[:, 2])[owner], spans[owner, 2]  # cells per step along x and y
+    x, left = np.divmod(offset, across)
+    y, z = np.divmod(left, along)
+    keys = _cell_keys(first)[owner] + (x * _KEY_SIDE + y) * _KEY_SIDE + z
+    return keys, owner, (x == 0) + 2 * (y == 0) + 4 * (z == 0)
+
+
+# Grid coordinates are in [0, 2^20] (``_cell_size``, ``_levels``): a cell's key is its coordinates in this base.
+_KEY_SIDE = np.int64((1 << 20) + 2)
+
+
 def _cell_keys(cells: np.ndarray) -> np.ndarray:
-    """(n,) int64 key of grid cells (n, 3), each coordinate in [0, 2^20] (``_cell_size``, ``_levels``)."""
-    side = np.int64((1 << 20) + 2)
-    return (cells[:, 0] * side + cells[:, 1]) * side + cells[:, 2]
+    """(n,) int64 key of grid cells (n, 3), each coordinate in [0, 2^20]."""
+    return (cells[:, 0] * _KEY_SIDE + cells[:, 1]) * _KEY_SIDE + cells[:, 2]
 
 
 def _every_pair(low_a, high_a, chosen_a, low_b, high_b, chosen_b):
@@ -282,16 +313,6 @@ def _cells(low: np.ndarray, high: np.ndarray, origin: np.ndarray, cell: float):
     """(n, 3) lowest grid cell of each box and (n, 3) its extent in cells."""
     first = np.floor((low - origin) / cell).astype(np.int64)
     return first, np.floor((high - origin) / cell).astype(np.int64) - first + 1
-
-
-def _listings(first: np.ndarray, spans: np.ndarray):
-    """(L, 3) grid cells of each box, and (L,) the box of each."""
-    counts = spans.prod(axis=1)
-    owner = np.repeat(np.arange(len(first)), counts)
-    offset, span = ranks(counts), spans[owner]
-    cells = first[owner] + np.stack([offset // (span[:, 1] * span[:, 2]), (offset // span[:, 2]) % span[:, 1],
-                                     offset % span[:, 2]], axis=1)
-    return cells, owner
 
 
 def ranks(counts: np.ndarray, run: np.ndarray | None = None) -> np.ndarray:

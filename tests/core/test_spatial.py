@@ -36,13 +36,17 @@ def test_overlapping_boxes_finds_exactly_the_touching_pairs(monkeypatch, grid):
     np.testing.assert_array_equal(second, expected_second)
 
 
-@pytest.mark.parametrize("grid", [True, False])
-def test_boxes_against_themselves_and_a_filter_give_exactly_the_touching_pairs_it_keeps(monkeypatch, grid):
+@pytest.mark.parametrize("grid, blocks", [(True, None), (True, 7), (False, None)])
+def test_boxes_against_themselves_and_a_filter_give_exactly_the_touching_pairs_it_keeps(monkeypatch, grid, blocks):
     """One set against itself (each pair of different sizes found once and turned round) gives
     every pair both ways and each box with itself, as brute force does; ``keep``, which need not be
-    symmetric, drops exactly the pairs it rejects, each way on its own."""
+    symmetric, drops exactly the pairs it rejects, each way on its own. So it does when the grid's
+    work is cut into ``blocks`` of a few candidates and queries (each pair made in one cell only)."""
     if grid:
         monkeypatch.setattr(spatial, "EVERY_PAIR", 0)
+    if blocks:
+        monkeypatch.setattr(spatial, "PAIRS_PER_BLOCK", blocks)
+        monkeypatch.setattr(spatial, "LISTINGS_PER_BLOCK", blocks)
     low, high = random_boxes(np.random.default_rng(8), 500)
     touching = ((low[:, None] <= high[None]) & (low[None] <= high[:, None])).all(axis=2)
     first, second = spatial.overlapping_boxes(low, high, low, high)
