@@ -248,26 +248,35 @@ def _cell_pairs(low_q, high_q, queried, low_l, high_l, listed, cell: float, orig
     bucket_ends = np.cumsum(np.bincount(bucket, minlength=len(cell_keys) * _FLAGS))
     bucket_starts = np.concatenate([[0], bucket_ends[:-1]]).reshape(-1, _FLAGS)
     bucket_counts = np.diff(bucket_ends, prepend=0).reshape(-1, _FLAGS)
+    reads = bucket_counts @ _ACCEPTED.T.astype(np.int64)  # (cells, 8) the listings a query needing those flags reads
     row = np.minimum(np.searchsorted(cell_keys, keys_q), len(cell_keys) - 1)
     shared = cell_keys[row] == keys_q
     row, listing_q = row[shared], np.flatnonzero(shared)
     needed = flags_q[listing_q] ^ (_FLAGS - 1)  # the axes along which the query's cell is past its box's first
+    total = np.cumsum(reads[row, needed])
 
-    def buckets(chunk: slice) -> tuple[np.ndarray, np.ndarray]:
-        """(k, 8) start and count of the listings each query of ``chunk`` reads, bucket by bucket."""
-        return bucket_starts[row[chunk]], np.where(_ACCEPTED[needed[chunk]], bucket_counts[row[chunk]], 0)
+    def ranges(chunk: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The runs of sorted listings the queries of ``chunk`` read: their starts, lengths and
+        queries. A query in its box's first cell (most of them) reads its cell's whole run, any
+        other the cell's buckets holding the flags it needs."""
+        query = np.arange(chunk.start, chunk.stop)
+        whole = needed[chunk] == 0
+        whole_query, part_query = query[whole], query[~whole]
+        part_row = row[part_query]
+        return (np.concatenate([bucket_starts[row[whole_query], 0], bucket_starts[part_row].ravel()]),
+                np.concatenate([reads[row[whole_query], 0],
+                                np.where(_ACCEPTED[needed[part_query]], bucket_counts[part_row], 0).ravel()]),
+                np.concatenate([whole_query, np.repeat(part_query, _FLAGS)]))
 
-    total = np.cumsum(np.concatenate([buckets(slice(begin, begin + LISTINGS_PER_BLOCK))[1].sum(axis=1)
-                                      for begin in range(0, len(row), LISTINGS_PER_BLOCK)] or [np.zeros(0, int)]))
     sides = [(np.ascontiguousarray(low_q[queried, axis]), np.ascontiguousarray(high_q[queried, axis]),
               np.ascontiguousarray(low_l[listed, axis]), np.ascontiguousarray(high_l[listed, axis]))
              for axis in range(3)]
 
     def block(chunk: slice) -> tuple[np.ndarray, np.ndarray]:
-        start, count = buckets(chunk)
-        run = runs(count.ravel())
-        second = owner_l[start.ravel()[run] + ranks(count.ravel(), run)]
-        first = owner_q[listing_q[chunk.start + run // _FLAGS]]
+        start, count, query = ranges(chunk)
+        run = runs(count)
+        second = owner_l[start[run] + ranks(count, run)]
+        first = owner_q[listing_q[query[run]]]
         for low_first, high_first, low_second, high_second in sides:  # axis by axis, on the pairs left
             touch = (low_first[first] <= high_second[second]) & (low_second[second] <= high_first[first])
             first, second = first[touch], second[touch]
