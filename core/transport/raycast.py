@@ -26,7 +26,7 @@ from typing import Callable
 import numpy as np
 
 from ..rays.visibility import RAY_EPSILON, Visibility
-from ..util import streams
+from ..util import parallel, streams
 from ..util.geometry import GOLDEN, barycentric_grid, longest_edges, solid_angle_directions
 from .analytic import point_to_triangle
 
@@ -57,6 +57,9 @@ EMITTER_MIXED_RAYS = 36
 # pairs (``formfactors.RAYS_PER_BLOCK`` of the bake's rays) whose pairs all disagree then holds no
 # more than its first rays did.
 CHUNK_RAYS = 1 << 18
+# The patches' sample points are made this many patches at a time on the pool: the same points,
+# with a small block's memory (316,328 patches, as the breakfast room's: 0.8 to 1.7 -> 0.4 s).
+SAMPLED_PATCHES = 1 << 15
 
 
 def lattice(count: int) -> np.ndarray:
@@ -127,9 +130,10 @@ class RayCaster:
         self.visibility = visibility
         self.rays = rays
         unit_corners = (patch_corners - visibility.center) * visibility.scale
-        self._unit_samples = stratified_samples(unit_corners, rays, _rotations(seed, streams.SHOT_SAMPLES,
-                                                                                len(unit_corners)))
-        self._unit_samples = self._unit_samples.astype(np.float32)
+        rotations = _rotations(seed, streams.SHOT_SAMPLES, len(unit_corners))
+        self._unit_samples = np.concatenate([np.zeros((0, rays, 3), np.float32), *parallel.map_ordered(
+            lambda part: stratified_samples(unit_corners[part], rays, rotations[part]).astype(np.float32),
+            [slice(start, start + SAMPLED_PATCHES) for start in range(0, len(unit_corners), SAMPLED_PATCHES)])])
         self._unit_normals = patch_normals.astype(np.float32)
         # disc term A / (pi S) of the weight, in the unit space of the visibility module
         self._unit_disc = (patch_areas * visibility.scale**2 / (np.pi * rays)).astype(np.float32)
