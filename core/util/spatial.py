@@ -258,16 +258,16 @@ def _cell_pairs(low_q, high_q, queried, low_l, high_l, listed, cell: float, orig
     def ranges(chunk: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The runs of sorted listings the queries of ``chunk`` read: their starts, lengths and
         queries. A query in its box's first cell (most of them) reads its cell's whole run, any
-        other the cell's buckets holding the flags it needs (each query 8 times over by a sum, as
-        np.repeat would hold the GIL: ``runs``)."""
+        other the cell's buckets holding the flags it needs."""
         query = np.arange(chunk.start, chunk.stop)
         whole = needed[chunk] == 0
         whole_query, part_query = query[whole], query[~whole]
         part_row = row[part_query]
-        return (np.concatenate([bucket_starts[row[whole_query], 0], bucket_starts[part_row].ravel()]),
-                np.concatenate([reads[row[whole_query], 0],
-                                np.where(_ACCEPTED[needed[part_query]], bucket_counts[part_row], 0).ravel()]),
-                np.concatenate([whole_query, (part_query[:, None] + np.zeros(_FLAGS, np.int64)).ravel()]))
+        part_counts = np.where(_ACCEPTED[needed[part_query]], bucket_counts[part_row], 0)  # (k, 8)
+        which, bucket = np.nonzero(part_counts)
+        return (np.concatenate([bucket_starts[row[whole_query], 0], bucket_starts[part_row[which], bucket]]),
+                np.concatenate([reads[row[whole_query], 0], part_counts[which, bucket]]),
+                np.concatenate([whole_query, part_query[which]]))
 
     sides = [(np.ascontiguousarray(low_q[queried, axis]), np.ascontiguousarray(high_q[queried, axis]),
               np.ascontiguousarray(low_l[listed, axis]), np.ascontiguousarray(high_l[listed, axis]))
