@@ -215,7 +215,7 @@ def _listed_sizes(extent: np.ndarray, base: float) -> np.ndarray:
 
 
 def _levels(sizes: np.ndarray, base: float, spread: float) -> np.ndarray:
-    """(n,) the grid level of boxes listed by ``sizes`` (n,, ``_listed_sizes``): the level l whose
+    """(n,) the grid level of boxes listed by ``sizes`` (n,; ``_listed_sizes``): the level l whose
     cells, ``base`` x 2^l, are between 1 / LISTED_CELLS and twice that size (a box spans at most
     3 cells per axis, 9 along the long sides of a huge flat one), at least the level where the
     boxes' ``spread`` is 2^19 cells and at most where it is 1."""
