@@ -14,9 +14,10 @@ from .progress import heartbeat
 # 1 / BOX_SPAN of its size: at most BOX_SPAN + 1 cells per axis.
 BOX_SPAN = 16
 # ``overlapping_boxes`` lists a box in a grid whose cells are between 1 / LISTED_CELLS and twice
-# that of its size: up to 3 x 3 x 3 cells. Finer cells list each box in more of them (a flat face
-# in some twenty at 4), coarser ones put more boxes in each; 2 was the fastest on the breakfast
-# room's coplanar pairs and contact lines (docs/notes/experiments.md).
+# that of its listed size (``_listed_sizes``): up to 3 x 3 x 3 cells (9 x 9 along a huge flat box's
+# sides). Finer cells list each box in more of them (a flat face in some twenty at 4), coarser ones
+# put more boxes in each; 2 was the fastest on the breakfast room's coplanar pairs and contact lines
+# (docs/notes/experiments.md).
 LISTED_CELLS = 2.0
 # A box over HUGE_BOX times the median size is listed by the larger of its smallest side and
 # 1 / FLAT_SPAN of its largest (``_listed_sizes``): a floor or a wall, in cells a few times finer
