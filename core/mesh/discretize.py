@@ -10,16 +10,18 @@ nothing, coarser, to about BLACK_LIGHT_PIECES.
 
 from __future__ import annotations
 
+from concurrent.futures import Future
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
 from ..scene import Scene
+from ..util import parallel
 from ..util.geometry import (ENCLOSING_TOLERANCE, areas_and_normals, enclosing, longest_edges, subdivide,
                              triangle_corners)
 from . import contacts, panels as panelling
-from .nodes import receiver_nodes
+from .nodes import grouped_corners, receiver_nodes
 from .panels import Panels
 from .topology import connected_components, degenerate, weld_corners
 
@@ -134,21 +136,26 @@ class Discretization:
 
 def discretize(scene: Scene, patch_size: float | None = None, crease_angle: float = np.radians(30),
                report: Callable[[float], None] = lambda _fraction: None, cut_contacts: bool = True,
-               panels: Panels | None = None, hidden_backs: bool = True) -> Discretization:
+               panels: Panels | None = None, hidden_backs: bool = True,
+               groups: Future | None = None) -> Discretization:
     """Split ``scene`` (or its ``panels``, ``panels.panels``) into patches no longer than
     ``patch_size`` (None: one patch per triangle), after cutting its triangles along contact
     lines (unless not ``cut_contacts``), and group the corners of ``scene``'s triangles into
     receiver nodes (``crease_angle`` in radians); ``report`` hears the fraction done between
     steps. Without ``hidden_backs``, a two-sided triangle with the whole scene in front of it
     (``geometry.enclosing``: a room's wall) gets no back patch: no point of a surface sees its
-    back, and light it sent back would reach no surface (a bake's receivers all lie on them)."""
+    back, and light it sent back would reach no surface (a bake's receivers all lie on them).
+    ``groups``: the grouping of ``scene``'s corners into nodes (``nodes.grouped_corners``) under
+    way on the pool, if it was started (waited for once the patches are made, so that their
+    errors come first)."""
     source = scene if panels is None else panels.scene
     patches = _patches(source, patch_size, cut_contacts, hidden_backs)
     report(0.4)
     # with panels, each node is evaluated on its panel (a vertex of a near-flat region may lie
     # off it by up to panels.FLATNESS of its size), so its own surface's patches never hide it
     on_panels = None if panels is None else panels.to_corners(triangle_corners(source.vertices, source.triangles))
-    nodes = receiver_nodes(scene, crease_angle, on_panels)
+    nodes = receiver_nodes(grouped_corners(scene, crease_angle) if groups is None else parallel.waited(groups),
+                           on_panels)
     if panels is None:
         panel_node = nodes["corner_node"]
     else:
@@ -164,9 +171,10 @@ def discretised(scene: Scene, patch_size: float, crease_angle: float, merge_flat
     ``merge_flat`` flat regions of small triangles merged (``panels``; else None), cut into
     patches of ``patch_size``, without the back faces no surface sees (``hidden_backs``);
     ``crease_angle`` in radians."""
+    groups = parallel.submit(grouped_corners, scene, crease_angle)  # needs no panels: made beside them
     panels = panelling.panels(scene, patch_size, lambda f: report(f / 2)) if merge_flat else None
     return discretize(scene, patch_size, crease_angle, lambda f: report(0.5 + f / 2), panels=panels,
-                      hidden_backs=False), panels
+                      hidden_backs=False, groups=groups), panels
 
 
 def _patches(scene: Scene, patch_size: float | None, cut_contacts: bool, hidden_backs: bool) -> dict:

@@ -5,6 +5,8 @@ colour may jump at creases and material borders."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..scene import Scene
@@ -26,65 +28,88 @@ NODE_INSET = 4e-5
 SAME_NORMAL = 1e-2
 
 
-def receiver_nodes(scene: Scene, crease_angle: float,
-                   corner_points: np.ndarray | None = None) -> dict[str, np.ndarray]:
-    """Nodes of the corners of ``scene``'s triangles (``crease_angle`` in radians), evaluated at
-    ``corner_points`` (T, 3, 3) (default: the corners themselves) moved into their faces
-    (``inset``), on or in front of each."""
+@dataclass(frozen=True)
+class CornerGroups:
+    """The corners of a scene's triangles grouped into receiver nodes (``grouped_corners``): all a
+    node is but the point where it is evaluated (``receiver_nodes``), which waits for the panels."""
+
+    scene: Scene
+    corners: np.ndarray  # (T, 3, 3) the triangles' corners
+    normals: np.ndarray  # (T, 3) their unit normals
+    valid_corners: np.ndarray  # (V,) flat indices of the corners of the triangles with an area
+    corner_group: np.ndarray  # (V,) the node of each
+    weight: np.ndarray  # (V,) the area of its triangle
+    nodes: dict[str, np.ndarray]  # node_normals, node_reflectance, node_emission, corner_node, node_vertex
+
+    @property
+    def count(self) -> int:
+        return len(self.nodes["node_normals"])
+
+    def mean(self, values: np.ndarray) -> np.ndarray:
+        """(N, k) each node's mean of ``values`` (V, k) over its corners, weighted by their areas."""
+        return _node_means(self.corner_group, self.weight, self.count, values)
+
+
+def grouped_corners(scene: Scene, crease_angle: float) -> CornerGroups:
+    """The corners of ``scene``'s triangles grouped into nodes (``crease_angle`` in radians), with
+    each node's normal, vertex and surface."""
     corners = triangle_corners(scene.vertices, scene.triangles)
     areas, normals = areas_and_normals(corners)
     zero_area = degenerate(corners)
     triangle_count = len(corners)
     weld = weld_corners(corners, scene.extent)  # (T, 3) welded vertex id per corner
     labels = _smoothing_groups(weld, scene.material, normals, zero_area, crease_angle, scene.corner_normals)
-    valid = ~zero_area
-    valid_corners = np.flatnonzero(np.repeat(valid, 3))
+    valid_corners = np.flatnonzero(np.repeat(~zero_area, 3))
     group_ids, corner_group = np.unique(labels.ravel()[valid_corners], return_inverse=True)
     group_count = len(group_ids)
-    triangle_of = valid_corners // 3
-    weight = areas[triangle_of]
-    totals = np.bincount(corner_group, weights=weight, minlength=group_count)
-
-    def mean(values: np.ndarray) -> np.ndarray:
-        return np.stack(
-            [np.bincount(corner_group, weights=weight * column, minlength=group_count) for column in values.T],
-            axis=1,
-        ) / totals[:, None]
-
-    if scene.corner_normals is None:
-        node_normals = mean(normals[triangle_of])
-    else:
-        node_normals = mean(scene.corner_normals.reshape(-1, 3)[valid_corners])
-    node_normals /= np.linalg.norm(node_normals, axis=1, keepdims=True)
-    positions = np.zeros((group_count, 3))
-    evaluated = (corners if corner_points is None else corner_points).reshape(-1, 3)[valid_corners]
-    positions[corner_group] = evaluated
-    towards_faces = mean(corners.mean(axis=1)[triangle_of]) - positions
-    towards_faces -= (towards_faces * node_normals).sum(axis=1, keepdims=True) * node_normals
-    points = positions + inset(towards_faces, scene.extent)
-    # in the tangent plane of a smooth normal the step can leave a concave corner's faces behind
-    # (a room's corner shaded smooth: the node would see the room through its walls), so the node
-    # is lifted along its normal until it is on or in front of each of its faces
-    height = np.einsum("cx,cx->c", normals[triangle_of], points[corner_group] - evaluated)
-    facing = np.einsum("cx,cx->c", normals[triangle_of], node_normals[corner_group])
-    behind = np.flatnonzero((height < -WELD_TOLERANCE * scene.extent) & (facing > 0))
-    lift = np.zeros(group_count)
-    np.maximum.at(lift, corner_group[behind], -height[behind] / facing[behind])
-    points += lift[:, None] * node_normals
     node_vertex = np.zeros(group_count, dtype=np.int64)
     node_vertex[corner_group] = weld.ravel()[valid_corners]
     corner_node = np.full(triangle_count * 3, -1, dtype=np.int64)
     corner_node[valid_corners] = corner_group
     _borrow_neighbour_nodes(corner_node, weld.ravel(), scene.material[np.arange(triangle_count * 3) // 3])
     reflectance, emission = node_surfaces(scene, corner_node.reshape(triangle_count, 3), group_count)
-    return {
-        "node_points": points,
-        "node_normals": node_normals,
-        "node_reflectance": reflectance,
-        "node_emission": emission,
-        "corner_node": corner_node.reshape(triangle_count, 3),
-        "node_vertex": node_vertex,
-    }
+    weight = areas[valid_corners // 3]
+    shading = normals[valid_corners // 3] if scene.corner_normals is None else \
+        scene.corner_normals.reshape(-1, 3)[valid_corners]
+    node_normals = _node_means(corner_group, weight, group_count, shading)
+    node_normals /= np.linalg.norm(node_normals, axis=1, keepdims=True)
+    return CornerGroups(scene, corners, normals, valid_corners, corner_group, weight, {
+        "node_normals": node_normals, "node_reflectance": reflectance, "node_emission": emission,
+        "corner_node": corner_node.reshape(triangle_count, 3), "node_vertex": node_vertex})
+
+
+def _node_means(corner_group: np.ndarray, weight: np.ndarray, count: int, values: np.ndarray) -> np.ndarray:
+    """(count, k) each node's mean of ``values`` (V, k) over its corners ``corner_group`` (V,),
+    weighted by ``weight`` (V,)."""
+    totals = np.bincount(corner_group, weights=weight, minlength=count)
+    return np.stack([np.bincount(corner_group, weights=weight * column, minlength=count) for column in values.T],
+                    axis=1) / totals[:, None]
+
+
+def receiver_nodes(groups: CornerGroups, corner_points: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """The nodes of ``groups`` (``grouped_corners``), evaluated at ``corner_points`` (T, 3, 3)
+    (default: the corners themselves) moved into their faces (``inset``), on or in front of each."""
+    corners, normals, valid_corners, corner_group = groups.corners, groups.normals, groups.valid_corners, \
+        groups.corner_group
+    extent = groups.scene.extent
+    node_normals = groups.nodes["node_normals"]
+    triangle_of = valid_corners // 3
+    positions = np.zeros((groups.count, 3))
+    evaluated = (corners if corner_points is None else corner_points).reshape(-1, 3)[valid_corners]
+    positions[corner_group] = evaluated
+    towards_faces = groups.mean(corners.mean(axis=1)[triangle_of]) - positions
+    towards_faces -= (towards_faces * node_normals).sum(axis=1, keepdims=True) * node_normals
+    points = positions + inset(towards_faces, extent)
+    # in the tangent plane of a smooth normal the step can leave a concave corner's faces behind
+    # (a room's corner shaded smooth: the node would see the room through its walls), so the node
+    # is lifted along its normal until it is on or in front of each of its faces
+    height = np.einsum("cx,cx->c", normals[triangle_of], points[corner_group] - evaluated)
+    facing = np.einsum("cx,cx->c", normals[triangle_of], node_normals[corner_group])
+    behind = np.flatnonzero((height < -WELD_TOLERANCE * extent) & (facing > 0))
+    lift = np.zeros(groups.count)
+    np.maximum.at(lift, corner_group[behind], -height[behind] / facing[behind])
+    points += lift[:, None] * node_normals
+    return {"node_points": points, **groups.nodes}
 
 
 def node_surfaces(scene: Scene, corner_node: np.ndarray, node_count: int) -> tuple[np.ndarray, np.ndarray]:
@@ -93,16 +118,10 @@ def node_surfaces(scene: Scene, corner_node: np.ndarray, node_count: int) -> tup
     corners = triangle_corners(scene.vertices, scene.triangles)
     areas = areas_and_normals(corners)[0]
     valid_corners = np.flatnonzero(np.repeat(~degenerate(corners), 3))
-    group = corner_node.ravel()[valid_corners]
-    weight = areas[valid_corners // 3]
-    totals = np.bincount(group, weights=weight, minlength=node_count)
-
-    def mean(values: np.ndarray) -> np.ndarray:
-        values = values[valid_corners // 3]
-        return np.stack([np.bincount(group, weights=weight * column, minlength=node_count) for column in values.T],
-                        axis=1) / totals[:, None]
-
-    return mean(scene.reflectance), mean(scene.emission)
+    group, triangle_of = corner_node.ravel()[valid_corners], valid_corners // 3
+    weight = areas[triangle_of]
+    return (_node_means(group, weight, node_count, scene.reflectance[triangle_of]),
+            _node_means(group, weight, node_count, scene.emission[triangle_of]))
 
 
 def inset(towards_faces: np.ndarray, extent: float) -> np.ndarray:

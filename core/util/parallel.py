@@ -25,15 +25,15 @@ def map_ordered(function: Callable[[Item], Result], items: Iterable[Item]) -> It
         for item in items:
             pending.append(_pool.submit(function, item))
             if len(pending) > THREADS:
-                yield _waited(pending.pop(0))
+                yield waited(pending.pop(0))
         while pending:
-            yield _waited(pending.pop(0))
+            yield waited(pending.pop(0))
     finally:  # the consumer stopped early (a cancel, an error): drop the work not yet started
         for future in pending:
             future.cancel()
 
 
-def _waited(future: Future) -> Result:
+def waited(future: Future) -> Result:
     """``future``'s result, the caller told every REPORT_INTERVAL that the bake goes on."""
     while True:
         try:
