@@ -67,12 +67,17 @@ def grouped_corners(scene: Scene, crease_angle: float) -> CornerGroups:
     corner_node = np.full(triangle_count * 3, -1, dtype=np.int64)
     corner_node[valid_corners] = corner_group
     _borrow_neighbour_nodes(corner_node, weld.ravel(), scene.material[np.arange(triangle_count * 3) // 3])
-    reflectance, emission = node_surfaces(scene, corner_node.reshape(triangle_count, 3), group_count)
-    weight = areas[valid_corners // 3]
-    shading = normals[valid_corners // 3] if scene.corner_normals is None else \
-        scene.corner_normals.reshape(-1, 3)[valid_corners]
+    triangle_of = valid_corners // 3
+    weight = areas[triangle_of]
+    if scene.corner_normals is None:
+        shading = normals[triangle_of]
+    else:
+        shading = scene.corner_normals.reshape(-1, 3)[valid_corners]
     node_normals = _node_means(corner_group, weight, group_count, shading)
     node_normals /= np.linalg.norm(node_normals, axis=1, keepdims=True)
+    # as node_surfaces reads them, from the grouping at hand: a triangle's corners' nodes are theirs
+    reflectance, emission = (_node_means(corner_group, weight, group_count, values[triangle_of])
+                             for values in (scene.reflectance, scene.emission))
     return CornerGroups(scene, corners, normals, valid_corners, corner_group, weight, {
         "node_normals": node_normals, "node_reflectance": reflectance, "node_emission": emission,
         "corner_node": corner_node.reshape(triangle_count, 3), "node_vertex": node_vertex})
@@ -89,13 +94,12 @@ def _node_means(corner_group: np.ndarray, weight: np.ndarray, count: int, values
 def receiver_nodes(groups: CornerGroups, corner_points: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """The nodes of ``groups`` (``grouped_corners``), evaluated at ``corner_points`` (T, 3, 3)
     (default: the corners themselves) moved into their faces (``inset``), on or in front of each."""
-    corners, normals, valid_corners, corner_group = groups.corners, groups.normals, groups.valid_corners, \
-        groups.corner_group
+    corners, normals, corner_group = groups.corners, groups.normals, groups.corner_group
     extent = groups.scene.extent
     node_normals = groups.nodes["node_normals"]
-    triangle_of = valid_corners // 3
+    triangle_of = groups.valid_corners // 3
     positions = np.zeros((groups.count, 3))
-    evaluated = (corners if corner_points is None else corner_points).reshape(-1, 3)[valid_corners]
+    evaluated = (corners if corner_points is None else corner_points).reshape(-1, 3)[groups.valid_corners]
     positions[corner_group] = evaluated
     towards_faces = groups.mean(corners.mean(axis=1)[triangle_of]) - positions
     towards_faces -= (towards_faces * node_normals).sum(axis=1, keepdims=True) * node_normals
