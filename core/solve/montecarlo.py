@@ -65,6 +65,12 @@ MIN_PARTICLES_PER_PATCH = 8
 POWER_SHARE = 0.5
 # Importons (``view_importance``) per particle: the importance only steers where particles leave.
 IMPORTONS_PER_PARTICLE = 1 / 16
+# Bounces an importon takes at most: Z is then the importance of paths of that many bounces. In the
+# breakfast room's pockets of reflectance 0.999 a few importons bounced 3,000 to 4,000 times, a
+# handful at a time on one thread (the GIL), 3.2 s of a 57 s bake; at 64 the tracing takes 0.8 s
+# and the error from path tracing at seeds 0 to 7 moved by -0.34 +- 0.33 points
+# (docs/notes/experiments.md, "Importons' paths cut short").
+IMPORTON_BOUNCES = 64
 # Paths traced for other colours are read again (``ParticlePaths.reusable``) while the second moment
 # of the power their particles carry is at most this times that of particles traced for the colours
 # (so the noise at most sqrt(1.25) = 1.12 times; tests/core/test_session.py measures it).
@@ -316,24 +322,28 @@ def view_importance(mesh: Discretization, visibility: Visibility, viewed: np.nda
     Z_q = sum_j F_qj Y_j; by reciprocity (A_q F_qj = A_j F_jq) that is the power per unit area
     arriving at q from patches of radiosity Y = rho V / A + rho Z, which ``particles`` importons,
     traced as particles with unshot rho V / A, estimate (Pattanaik and Mudur, "Adjoint equations
-    and random walks for illumination computation", 1995; Bekaert 1999, ch. 6). ``reflectance``
-    (P, C) is averaged over the channels; ``receiving`` as in ``trace_paths``."""
+    and random walks for illumination computation", 1995; Bekaert 1999, ch. 6), each of at most
+    IMPORTON_BOUNCES bounces (Z of paths that long: it only steers). ``reflectance`` (P, C) is
+    averaged over the channels; ``receiving`` as in ``trace_paths``."""
     albedo = reflectance.mean(axis=1, keepdims=True)
     emitted = albedo * (viewed / mesh.patch_areas)[:, None]
-    paths = trace_paths(mesh, visibility, emitted, albedo, particles, seed, report, stream=1, receiving=receiving)
+    paths = trace_paths(mesh, visibility, emitted, albedo, particles, seed, report, stream=1, receiving=receiving,
+                        max_bounces=IMPORTON_BOUNCES)
     return paths.arriving(mesh, emitted, albedo)[:, 0]
 
 
 def trace_paths(mesh: Discretization, visibility: Visibility, unshot: np.ndarray, reflectance: np.ndarray,
                 particles: int, seed: int = 0, report: Report = quiet, importance: np.ndarray | None = None,
-                stream: int = 0, receiving: np.ndarray | None = None) -> ParticlePaths:
+                stream: int = 0, receiving: np.ndarray | None = None,
+                max_bounces: int | None = None) -> ParticlePaths:
     """The paths of ``particles`` particles carrying ``unshot`` U (P, C) between patches of
     ``reflectance`` rho (P, C) (see the module docstring), to be read by ``ParticlePaths.future``;
     sent by power, or by power and a view ``importance`` (P,) (``_sampling``). ``stream``
     separates the random numbers of tracings with one ``seed``. ``receiving`` (P, 3): where each
     patch received its light (``receivers``); a particle drawn at a point that an opaque surface
     passing through the patch parts from there (``_same_side``) is then absorbed where it
-    starts, so a patch sends its light only from the side it was lit on."""
+    starts, so a patch sends its light only from the side it was lit on. ``max_bounces``: a
+    particle lands at most that many times (None: until Russian roulette stops it)."""
     surfaces = Surfaces(mesh, visibility)
     sampling = _sampling(_power_shares(mesh, unshot), importance)
     if particles <= 0 or sampling is None:
@@ -362,7 +372,7 @@ def trace_paths(mesh: Discretization, visibility: Visibility, unshot: np.ndarray
             leaving = np.flatnonzero(_same_side(visibility, point, receiving[patch], normal))
             patch, point, normal, came_from = patch[leaving], point[leaving], normal[leaving], came_from[leaving]
         bounces = []
-        while len(patch):
+        while len(patch) and (max_bounces is None or len(bounces) < max_bounces):
             directions = cosine_directions(normal, rng.random((len(patch), 2)))
             patch, point = surfaces.hit(point, directions, normal, rng)
             landed = np.flatnonzero(patch >= 0)

@@ -88,6 +88,20 @@ def test_the_view_importance_in_a_furnace_is_what_the_reflections_add_up_to():
     np.testing.assert_allclose(importance, 3.0, rtol=0.15)
 
 
+def test_importons_cut_short_give_the_reflections_of_that_many_bounces(monkeypatch):
+    """The furnace above at rho = 0.9, the importons cut after K = 8 bounces
+    (``IMPORTON_BOUNCES``): the k-th landing adds rho v rho^(k - 1), so Z = rho v (1 - rho^K) /
+    (1 - rho) = 15.377 (27 uncut). Over four seeds the 432 patches spread 2 % (the largest 6.5 %),
+    so 10 % is 5 standard deviations; their mean spread 0.08 %, so 0.5 % is 6."""
+    monkeypatch.setattr(montecarlo, "IMPORTON_BOUNCES", 8)
+    mesh = discretize(uniform(*box(), 0.9, 0.0), 0.25)
+    importance = montecarlo.view_importance(mesh, rays_of(mesh), 3.0 * mesh.patch_areas, mesh.patch_reflectance,
+                                            200_000)
+    expected = 0.9 * 3.0 * (1 - 0.9 ** 8) / (1 - 0.9)
+    np.testing.assert_allclose(mesh.patch_areas @ importance / mesh.patch_areas.sum(), expected, rtol=0.005)
+    np.testing.assert_allclose(importance, expected, rtol=0.10)
+
+
 def test_the_view_importance_of_a_wall_is_what_its_light_adds_to_the_readings_traced_forwards():
     """The adjoint against the forward: in a box without its ceiling, walls of reflectance 0.2 to
     0.8, the floor read (V = A there), importons give each patch's Z; particles of unit power
