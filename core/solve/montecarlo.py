@@ -67,7 +67,7 @@ POWER_SHARE = 0.5
 IMPORTONS_PER_PARTICLE = 1 / 16
 # Bounces an importon takes at most: Z is then the importance of paths of that many bounces. In the
 # breakfast room's pockets of reflectance 0.999 a few importons bounced 3,000 to 4,000 times, a
-# handful at a time on one thread (the GIL), 3.2 s of a 57 s bake; at 64 the tracing takes 0.8 s
+# handful at a time on one thread (the GIL), 3.2 s of a 60 s bake; at 64 the tracing takes 0.8 s
 # and the error from path tracing at seeds 0 to 7 moved by -0.34 +- 0.33 points
 # (docs/notes/experiments.md, "Importons' paths cut short").
 IMPORTON_BOUNCES = 64
