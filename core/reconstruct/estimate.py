@@ -33,15 +33,22 @@ LEVEL_FACTOR = 2.0
 ROUNDING_FLOOR = 1e-6
 
 
-def solver_error(mesh: Discretization, radiosity: np.ndarray, solve_stats: dict) -> float:
-    """The solver's part, relative to the mean radiosity of the patches that emit nothing.
+def solver_error(mesh: Discretization, colors: np.ndarray, radiosity: np.ndarray, solve_stats: dict) -> float:
+    """The solver's part, relative to the mean light of what emits nothing.
 
     Progressive: the unshot light with its future bounces, u / (1 - u) sum_p A_p B_p, where u
     is ``unshot_fraction`` (of all light), over sum_quiet A_p B_p. Jacobi, Gauss-Seidel: the
-    bound on max |B - B*|, ``error_bound`` max |B|, over the quiet patches' mean |B|."""
-    quiet = ~mesh.patch_emission.any(axis=1)
-    if not quiet.any():
-        quiet = np.ones_like(quiet)
+    RMS of their patch-by-patch bound (``rms_error_bound``: ``rms_patch_error``) over the mean
+    of the node ``colors`` (N, C) that emit nothing, which read the patches' errors through form
+    factors that sum to at most 1 (infinite where those are all dark and the bound is not 0).
+    Hierarchical: the bound on max |B - B*|, ``error_bound`` max |B|, over the quiet patches'
+    mean |B|."""
+    if "rms_error_bound" in solve_stats:
+        quiet = ~mesh.node_emission.any(axis=1)
+        scale = float(np.abs(colors[quiet if quiet.any() else slice(None)]).mean())
+        left = solve_stats["rms_error_bound"]
+        return left / scale if scale > 0 else (float("inf") if left > 0 else 0.0)
+    quiet = _quiet_patches(mesh)
     light = mesh.patch_areas @ np.abs(radiosity).sum(axis=1)
     quiet_light = mesh.patch_areas[quiet] @ np.abs(radiosity[quiet]).sum(axis=1)
     if quiet_light <= 0:
@@ -51,6 +58,21 @@ def solver_error(mesh: Discretization, radiosity: np.ndarray, solve_stats: dict)
         return float(left / (1 - left) * light / quiet_light) if left < 1 else float("inf")
     mean = quiet_light / (mesh.patch_areas[quiet].sum() * radiosity.shape[1])
     return float(solve_stats["error_bound"] * np.abs(radiosity).max() / mean)
+
+
+def rms_patch_error(mesh: Discretization, bounds: np.ndarray) -> float:
+    """sqrt(sum_p A_p |e_p|^2 / sum_p A_p) over the patches that emit nothing and all channels:
+    the RMS, weighed by area, of a bound ``bounds`` e (P, C) on each patch's error
+    (``iterative.componentwise_bound``)."""
+    quiet = _quiet_patches(mesh)
+    areas = mesh.patch_areas[quiet]
+    return float(np.sqrt((areas @ (bounds[quiet] ** 2).mean(axis=1)) / areas.sum()))
+
+
+def _quiet_patches(mesh: Discretization) -> np.ndarray:
+    """(P,) the patches that emit nothing (all, where every patch emits)."""
+    quiet = ~mesh.patch_emission.any(axis=1)
+    return quiet if quiet.any() else np.ones_like(quiet)
 
 
 def monte_carlo_error(mesh: Discretization, colors: np.ndarray, standard_error: np.ndarray) -> float:
@@ -121,7 +143,7 @@ def of_bake(mesh: Discretization, colors: np.ndarray, radiosity: np.ndarray, rec
     elif method == "hemicube":  # the gap is what covers the hemicube's aliasing
         change = max(change, corner_patch_gap(mesh, colors, radiosity, receiving_points))
     if noise is None:
-        left = solver_error(mesh, radiosity, solve_stats)
+        left = solver_error(mesh, colors, radiosity, solve_stats)
     else:  # the light not shot is distributed, up to the final gather's noise
         left = monte_carlo_error(mesh, colors, mesh.node_reflectance[:, : colors.shape[1]] * noise)
     sampling = 0.0 if direct_noise is None else relative_rms(mesh.node_reflectance[:, : colors.shape[1]] * direct_noise,

@@ -209,8 +209,11 @@ class _Levels:
         """Jacobi or Gauss-Seidel on ``matrix``, from the last level's answer if there was one."""
         settings = self.settings
         iterate = iterative.jacobi if settings.solver == "jacobi" else iterative.gauss_seidel
-        radiosity, self.stats = iterate(matrix, self.light.mesh.patch_reflectance[:, : self.channels], sources,
-                                        tolerance, settings.max_iterations, report, self.radiosity)
+        mesh = self.light.mesh
+        radiosity, stats = iterate(matrix, mesh.patch_reflectance[:, : self.channels], sources,
+                                   tolerance, settings.max_iterations, report, self.radiosity)
+        bounds = stats.pop("error_bounds")  # (P, C): kept as its RMS, a number the statistics can hold
+        self.stats = stats | {"rms_error_bound": estimate.rms_patch_error(mesh, bounds)}
         self.radiosity = radiosity
         return radiosity
 
