@@ -106,13 +106,13 @@ def componentwise_bound(matrix: np.ndarray, reflectance: np.ndarray, residual: n
         |B* - B| <= sum_{k < m} A^k |r| + w_m / (1 - lambda_m),
 
     the least of these for m = 0, 1, ... (until lambda_m settles) and ``uniform``, the bound on
-    max |B* - B| of ``_iterate``. Where w_m is nearly A's Perron vector, lambda_m is about A's spectral radius
-    and the bound about the error itself (exactly it where r >= 0, as from B = E); Jacobi's r is
-    such a vector after a few sweeps (m = 0 will do), Gauss-Seidel's is 0 on the rows it updated
-    last (then lambda_0 is infinite and m >= 1 is needed). The uniform bound takes the largest row
-    sum and the largest |r| instead."""
+    max |B* - B| of ``_iterate``. Where w_m is nearly A's Perron vector, lambda_m is about A's
+    spectral radius, and where r keeps one sign (as from B = E) no term cancels another: the bound
+    is then about the error itself. Jacobi's r is such a vector after a few sweeps (m = 0 will
+    do); Gauss-Seidel's is 0 on the rows it updated last (lambda_0 is then infinite, and m >= 1 is
+    needed). The uniform bound takes the largest row sum and the largest |r| instead."""
     bound = np.full(residual.shape, uniform)
-    if (matrix < 0).any():  # not a form-factor matrix: A^k |r| need not bound |A^k r|
+    if matrix.min(initial=0.0) < 0:  # not a form-factor matrix: A^k |r| need not bound |A^k r|
         return bound
     power, before = np.abs(residual), np.zeros(residual.shape)
     last = np.full(residual.shape[1], np.inf)
