@@ -44,9 +44,7 @@ def solver_error(mesh: Discretization, colors: np.ndarray, radiosity: np.ndarray
     Hierarchical: the bound on max |B - B*|, ``error_bound`` max |B|, over the quiet patches'
     mean |B|."""
     if "rms_error_bound" in solve_stats:
-        quiet = ~mesh.node_emission.any(axis=1)
-        scale = float(np.abs(colors[quiet if quiet.any() else slice(None)]).mean())
-        left = solve_stats["rms_error_bound"]
+        scale, left = _mean_colour(colors, ~mesh.node_emission.any(axis=1)), solve_stats["rms_error_bound"]
         return left / scale if scale > 0 else (float("inf") if left > 0 else 0.0)
     quiet = _quiet_patches(mesh)
     light = mesh.patch_areas @ np.abs(radiosity).sum(axis=1)
@@ -85,8 +83,13 @@ def monte_carlo_error(mesh: Discretization, colors: np.ndarray, standard_error: 
 def relative_rms(difference: np.ndarray, colors: np.ndarray, quiet: np.ndarray) -> float:
     """sqrt(mean |difference|^2) / mean |colors| over rows ``quiet`` (all rows if none is)."""
     chosen = quiet if quiet.any() else np.ones_like(quiet)
-    scale = float(np.abs(colors[chosen]).mean())
+    scale = _mean_colour(colors, quiet)
     return float(np.sqrt((difference[chosen] ** 2).mean()) / scale) if scale > 0 else 0.0
+
+
+def _mean_colour(colors: np.ndarray, quiet: np.ndarray) -> float:
+    """mean |colors| over rows ``quiet`` (all rows if none is)."""
+    return float(np.abs(colors[quiet if quiet.any() else slice(None)]).mean())
 
 
 def level_change(mesh: Discretization, colors: np.ndarray, previous: np.ndarray) -> float:
