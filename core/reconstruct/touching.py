@@ -22,7 +22,8 @@ Where the direct light D (G of the lights but the sky, and of the emitting patch
 PROBE_DIRECTIONS x PROBE_SHELLS points about the foot differs from the linear reading of its
 values D_i at q's corners by more than VARIES of the largest, it is read on the polar cells
 (each direction cut at SHELL_RADII heights of n over q) one by one, with w_j each cell's share of
-the form factor and x_j its middle:
+the form factor and x_j its middle (D_i read finely, as at the nodes; D(x) coarsely, with the
+bake's rays as a patch reads the emitters, since many cells share one correction):
 
     G_n += F(n, q) rho_q sum_j w_j (D(x_j) - sum_i lambda_i(x_j) D_i)
 
@@ -65,7 +66,7 @@ MAX_POINTS = 25_000
 MAX_PROBED_PAIRS = 2048
 PAIRS_PER_BLOCK = 4096
 
-DirectLight = Callable[[np.ndarray, np.ndarray], np.ndarray]
+DirectLight = Callable[[np.ndarray, np.ndarray, bool], np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -134,8 +135,9 @@ def read_touching(touching: Touching, mesh: Discretization, direct: DirectLight,
                   channels: int) -> tuple[NearField, np.ndarray, int]:
     """``touching.near`` (the touching pairs' reading points), the change (N + M, C) of the
     lighting G of the output nodes, then of the interpolation nodes, for the detail of the direct
-    light, and the number of pairs it changes; ``direct(points, normals)`` gives (m, >= C) the
-    direct light G at points (m, 3) facing unit normals (m, 3)."""
+    light, and the number of pairs it changes; ``direct(points, normals, finely)`` gives (m, >= C)
+    the direct light G at points (m, 3) facing unit normals (m, 3), read finely or not
+    (``ArrivingLight.sharp``)."""
     near = touching.near
     points = np.concatenate([mesh.node_points, near.points])
     normals = np.concatenate([mesh.node_normals, near.normals])
@@ -154,7 +156,7 @@ def read_touching(touching: Touching, mesh: Discretization, direct: DirectLight,
     pair, share, middle, where, corner_light = (part[:MAX_POINTS]
                                                 for part in (pair, share, middle, where, corner_light))
     patch = near.patch[pair]
-    light = direct(middle, mesh.patch_normals[patch])[:, :channels]
+    light = direct(middle, mesh.patch_normals[patch], False)[:, :channels]
     linear = np.einsum("kb,kbc->kc", where, corner_light)
     change = (share * near.form_factor[pair])[:, None] * mesh.patch_reflectance[patch, :channels] * (light - linear)
     for channel in range(channels):
@@ -167,7 +169,7 @@ def _corner_light(near: NearField, pairs: np.ndarray, points, normals, direct: D
     """(k, 3, C) the direct light at the corners of the patches of ``pairs``, where their corner
     colours are evaluated."""
     used, at_corner = np.unique(near.corner_receiver[pairs], return_inverse=True)
-    return direct(points[used], normals[used])[:, :channels][at_corner.reshape(-1, 3)]
+    return direct(points[used], normals[used], True)[:, :channels][at_corner.reshape(-1, 3)]
 
 
 def _misread(middles, where, shares, normals, corner_light, direct: DirectLight, channels: int) -> np.ndarray:
@@ -178,7 +180,7 @@ def _misread(middles, where, shares, normals, corner_light, direct: DirectLight,
     probes = np.array([a * FINE_SHELLS + s for a in range(0, ANGLES, step) for s in PROBE_SHELLS])
     rows, cells = np.nonzero(shares[:, probes] > 0)
     cells = probes[cells]
-    light = direct(middles[rows, cells], normals[rows])[:, :channels].sum(axis=1)
+    light = direct(middles[rows, cells], normals[rows], False)[:, :channels].sum(axis=1)
     linear = np.einsum("kb,kb->k", where[rows, cells], corner_light[rows].sum(axis=2))
     largest = np.maximum(corner_light.sum(axis=2).max(axis=1), 0.0)
     np.maximum.at(largest, rows, light)

@@ -69,45 +69,50 @@ class ArrivingLight:
         intensity = self.intensities[index, : self.channels]
         return factors[:, index, : self.channels] * intensity, intensity
 
-    def sharp(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    def sharp(self, points: np.ndarray, normals: np.ndarray, finely: bool = True) -> np.ndarray:
         """From the emitting patches' first shot and the lights, without the sky: the direct
-        light whose shadows start at a contact (``touching``)."""
-        emitters, to_emitters, light_factors = self._sharp_factors(points, normals)
+        light whose shadows start at a contact (``touching``); the emitters read ``finely`` as
+        at the nodes, or with the bake's rays as at the patches
+        (``FormFactorEngine.emitter_form_factors``)."""
+        emitters, to_emitters, light_factors = self._sharp_factors(points, normals, finely)
         lights = len(self.direct.lights)
         lit = to_emitters @ self.mesh.patch_emission[emitters] + self.direct.combine(light_factors,
                                                                                    self.intensities[:lights])
         return lit[:, : self.channels]
 
-    def _sharp_factors(self, points: np.ndarray, normals: np.ndarray) -> tuple:
+    def _sharp_factors(self, points: np.ndarray, normals: np.ndarray, finely: bool) -> tuple:
         """The emitting patches (e,), the form factors (m, e) to them and the lights' ``factors``
         (m, L, 3) at points (m, 3) facing normals (m, 3). With ``kept``, they are kept per point
         (its position and normal, to the bit): a re-solve asks at many of the same points, but in
         other sets (the touching pairs read are those of the patches lit then), and measures only
-        the points not asked at before, while the emitting patches are the same."""
+        the points not asked at before, while the emitting patches are the same (those read
+        coarsely apart, in ``kept["coarse"]``)."""
         if self.kept is None or len(points) == 0:
-            return (*self.engine.emitter_form_factors(points, normals), self.direct.light_factors_at(points, normals))
+            return (*self.engine.emitter_form_factors(points, normals, finely),
+                    self.direct.light_factors_at(points, normals))
         emitters = np.flatnonzero(self.mesh.patch_emission.any(axis=1))
         if not np.array_equal(self.kept.get("emitters", emitters), emitters):
             self.kept.clear()
+        kept = self.kept if finely else self.kept.setdefault("coarse", {})
         keys = np.ascontiguousarray(np.concatenate([points, normals], axis=1), dtype=np.float64)
         keys = keys.view(f"V{keys.shape[1] * keys.itemsize}").ravel()
-        known = self.kept.get("points", keys[:0])
+        known = kept.get("points", keys[:0])
         place = np.searchsorted(known, keys)
         new = place >= len(known)
         new[~new] = known[place[~new]] != keys[~new]
         if new.any():
             added, first = np.unique(keys[new], return_index=True)
             rows = np.flatnonzero(new)[first]
-            _, to_emitters = self.engine.emitter_form_factors(points[rows], normals[rows])
+            _, to_emitters = self.engine.emitter_form_factors(points[rows], normals[rows], finely)
             light_factors = self.direct.light_factors_at(points[rows], normals[rows])
             merged = np.concatenate([known, added])
             order = np.argsort(merged, kind="stable")
-            self.kept["points"] = merged[order]
+            kept["points"] = merged[order]
             for name, values in (("to_emitters", to_emitters), ("light_factors", light_factors)):
-                self.kept[name] = np.concatenate([self.kept[name], values])[order] if name in self.kept else values
+                kept[name] = np.concatenate([kept[name], values])[order] if name in kept else values
             self.kept["emitters"] = emitters
-            place = np.searchsorted(self.kept["points"], keys)
-        return emitters, self.kept["to_emitters"][place], self.kept["light_factors"][place]
+            place = np.searchsorted(kept["points"], keys)
+        return emitters, kept["to_emitters"][place], kept["light_factors"][place]
 
     def gathered(self, points: np.ndarray, normals: np.ndarray, radiosity: np.ndarray,
                  report: Report = quiet) -> np.ndarray:

@@ -121,11 +121,12 @@ class FormFactorEngine:
         emitters, factors = self.emitter_form_factors(points, normals)
         return factors @ self.mesh.patch_emission[emitters]
 
-    def emitter_form_factors(self, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def emitter_form_factors(self, points: np.ndarray, normals: np.ndarray,
+                             finely: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """The emitting patches (e,) and the form factors (m, e) from points (m, 3) facing normals
-        (m, 3) to them, read finely (two sets of ``raycast.EMITTER_RAYS``, and ``EMITTER_MIXED_RAYS``
-        or ``CLOSE_MIXED_RAYS``, each or the rays if more, where those disagree: the points are
-        where colours are shown, as the nodes)."""
+        (m, 3) to them, read ``finely`` (two sets of ``raycast.EMITTER_RAYS``, and
+        ``EMITTER_MIXED_RAYS`` or ``CLOSE_MIXED_RAYS``, each or the rays if more, where those
+        disagree: for points where colours are shown, as the nodes) or as a patch reads them."""
         mesh = self.mesh
         emitters = np.flatnonzero(mesh.patch_emission.any(axis=1))
         factors = np.zeros((len(points), len(emitters)))
@@ -142,7 +143,7 @@ class FormFactorEngine:
             inside = np.flatnonzero(bounded)
             found, which = self._facing_in_boxes(points, normals, emitters[inside], low[inside], high[inside])
             receivers, chosen = np.concatenate([receivers, found]), np.concatenate([chosen, inside[which]])
-        size, finely = PAIRS_PER_BLOCK, np.ones(len(points), dtype=bool)
+        size, finely = PAIRS_PER_BLOCK, np.full(len(points), finely)
         factors[receivers, chosen] = np.concatenate([np.zeros(0), *parallel.map_ordered(
             lambda start: self.point_form_factors(points, normals, receivers[start:start + size],
                                                   emitters[chosen[start:start + size]], finely),

@@ -296,7 +296,8 @@ def test_the_sharp_light_is_kept_point_by_point_and_measured_only_where_new():
     """``ArrivingLight.sharp`` with ``kept``: asked at a second set of points that shares some
     with the first (in another order), it measures the form factors to the emitters and the
     lights' shadows only at the new points, and gives at every point what a light without
-    ``kept`` measures afresh (the truth), to the bit; emitters that change clear what was kept."""
+    ``kept`` measures afresh (the truth), to the bit; read coarsely, points are kept apart from
+    the same points read finely; emitters that change clear what was kept."""
     from core.mesh.discretize import discretize
     from core.transport.arriving import ArrivingLight
     from core.transport.direct import DirectLighting
@@ -308,7 +309,8 @@ def test_the_sharp_light_is_kept_point_by_point_and_measured_only_where_new():
     direct = DirectLighting(scene.lights, scene.sky, engine.visibility, 4, 0, None)
     kept, asked = {}, []
     measure = engine.emitter_form_factors
-    engine.emitter_form_factors = lambda points, normals: (asked.append(len(points)), measure(points, normals))[1]
+    engine.emitter_form_factors = lambda points, normals, finely=True: (asked.append(len(points)),
+                                                                        measure(points, normals, finely))[1]
     light = ArrivingLight(engine, direct, 3, kept=kept)
     afresh = ArrivingLight(engine, direct, 3)
     points, normals = mesh.node_points, mesh.node_normals
@@ -321,9 +323,19 @@ def test_the_sharp_light_is_kept_point_by_point_and_measured_only_where_new():
                                   afresh.sharp(points[second], normals[second]))
     assert asked[0] == len(new) and len(new) < len(second)
     assert len(kept["points"]) == len(np.union1d(first, second))
+    # read coarsely, points across the edge of the plate's shadow on the floor (where the two
+    # readings differ) are measured again and kept apart
+    across = np.stack([np.linspace(0.05, 0.95, 19), np.full(19, 0.45), np.zeros(19)], axis=1)
+    up = np.tile([0.0, 0.0, 1.0], (19, 1))
+    finely = light.sharp(across, up)
+    asked.clear()
+    coarsely = light.sharp(across, up, finely=False)
+    np.testing.assert_array_equal(coarsely, afresh.sharp(across, up, finely=False))
+    assert asked[0] == 19 and len(kept["coarse"]["points"]) == 19 and (coarsely != finely).any()
+    np.testing.assert_array_equal(light.sharp(across, up), finely)
     brighter = dataclasses.replace(mesh, patch_emission=np.where(mesh.patch_emission.any(axis=1, keepdims=True),
                                                                  mesh.patch_emission, 0.5))
     light.engine.mesh = brighter
     asked.clear()
     light.sharp(points[first], normals[first])
-    assert asked[0] == len(first) and len(kept["points"]) == len(first)
+    assert asked[0] == len(first) and len(kept["points"]) == len(first) and "coarse" not in kept
