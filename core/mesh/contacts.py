@@ -148,7 +148,9 @@ def _cut(corners: np.ndarray, target: np.ndarray, start: np.ndarray, end: np.nda
     triangles are split at once, one line of each triangle per round: polygons of up to V
     corners padded to V. The triangles with most lines come first, so those still being cut are
     a leading run of the polygons, and the others are set aside once their last line is done (a
-    table top that 400 cups' rims cut does not make every other piece wait 400 rounds)."""
+    table top that 400 cups' rims cut does not make every other piece wait 400 rounds). A round
+    measures a segment only across the pieces whose ``_reach`` holds its box (the breakfast room's
+    cuts 1.73 -> 0.95 s)."""
     _, normals = areas_and_normals(corners)
     tolerance = CONTACT_TOLERANCE * longest_edges(corners)
     triangles, first_line, line_count = np.unique(target, return_index=True, return_counts=True)
@@ -156,18 +158,23 @@ def _cut(corners: np.ndarray, target: np.ndarray, start: np.ndarray, end: np.nda
     across /= np.linalg.norm(across, axis=1, keepdims=True)
     slot = np.argsort(-line_count, kind="stable")  # the triangle (index into ``triangles``) of each polygon
     polygons, sizes = corners[triangles[slot]], np.full(len(triangles), 3)
+    low, high = _reach(polygons, sizes, normals[triangles[slot]], tolerance[triangles[slot]])
     finished = []
     for number in range(int(line_count.max())):
         heartbeat()
         cutting = int(np.searchsorted(-line_count[slot], -number, side="left"))  # line_count > number
         finished.append((polygons[cutting:], sizes[cutting:], slot[cutting:]))
-        polygons, sizes, slot = polygons[:cutting], sizes[:cutting], slot[:cutting]
+        polygons, sizes, slot, low, high = (part[:cutting] for part in (polygons, sizes, slot, low, high))
         line = first_line[slot] + number
         # only the pieces the contact segment itself runs through: a line across the whole
-        # triangle would cut every piece, L lines into O(L^2) pieces
-        crossed = np.flatnonzero(_run_inside(polygons, sizes, normals[target[line]], start[line], end[line],
-                                             tolerance[target[line]]) > tolerance[target[line]])
-        line = line[crossed]
+        # triangle would cut every piece, L lines into O(L^2) pieces; and of those, only the
+        # pieces whose reach holds the segment's box are measured
+        near = np.flatnonzero((low <= np.maximum(start[line], end[line])).all(axis=1)
+                              & (high >= np.minimum(start[line], end[line])).all(axis=1))
+        line = line[near]
+        runs = _run_inside(polygons[near], sizes[near], normals[target[line]], start[line], end[line],
+                           tolerance[target[line]]) > tolerance[target[line]]
+        crossed, line = near[runs], line[runs]
         positive, negative, cuts = _split(polygons[crossed], sizes[crossed], start[line], across[line],
                                           tolerance[target[line]])
         split = np.zeros(len(polygons), dtype=bool)
@@ -182,6 +189,9 @@ def _cut(corners: np.ndarray, target: np.ndarray, start: np.ndarray, end: np.nda
             new_polygons[place] = 0.0
             new_polygons[place, : points.shape[1]] = points[cuts]
             new_sizes[place] = count[cuts]
+        low, high = np.repeat(low, copies, axis=0), np.repeat(high, copies, axis=0)
+        pieces, owner = np.concatenate([at[split], at[split] + 1]), np.tile(target[line[cuts]], 2)
+        low[pieces], high[pieces] = _reach(new_polygons[pieces], new_sizes[pieces], normals[owner], tolerance[owner])
         polygons, sizes, slot = new_polygons, new_sizes, np.repeat(slot, copies)
     finished.append((polygons, sizes, slot))
     sizes = np.concatenate([part[1] for part in finished])
@@ -193,6 +203,31 @@ def _cut(corners: np.ndarray, target: np.ndarray, start: np.ndarray, end: np.nda
     second = ranks(fans) + 1
     return np.stack([polygons[polygon, 0], polygons[polygon, second], polygons[polygon, second + 1]], axis=1), \
         triangles[slot[polygon]]
+
+
+def _reach(polygons: np.ndarray, sizes: np.ndarray, normals: np.ndarray,
+           tolerance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(k, 3) lowest and highest corners of boxes that hold each convex polygon (k, V, 3) of
+    ``sizes`` (k,) corners, counter-clockwise about ``normals`` (k, 3), grown by ``tolerance``
+    (k,) as ``_run_inside`` grows it: each edge moved out by t moves a corner of interior angle a
+    by t / sin(a / 2), which is 1 / cos of half the turn between the edges' outward normals o and
+    o' (|o + o'| / (1 + o . o')); one tolerance more keeps rounding from dropping a piece a
+    segment runs through. A polygon with a corner sharper than about 0.1 degree, or an edge of no
+    length, reaches everywhere."""
+    corner = np.arange(polygons.shape[1])
+    used = corner < sizes[:, None]
+    following = np.take_along_axis(polygons, np.where(corner + 1 < sizes[:, None], corner + 1, 0)[..., None], axis=1)
+    outward = np.cross(following - polygons, normals[:, None])
+    length = np.linalg.norm(outward, axis=2)
+    outward /= np.maximum(length, np.finfo(float).tiny)[..., None]
+    before = np.take_along_axis(outward, np.where(corner > 0, corner - 1, sizes[:, None] - 1)[..., None], axis=1)
+    turn = 1.0 + np.einsum("kvx,kvx->kv", before, outward)  # 1 + o . o' = 2 cos^2 of half the turn
+    stretch = np.where(used, np.linalg.norm(before + outward, axis=2) / np.maximum(turn, 1e-300), 0.0).max(axis=1)
+    spread = ((used & ((turn < 1e-6) | (length <= 0))).any(axis=1))
+    margin = np.where(spread, np.inf, (stretch + 1.0) * tolerance)[:, None]
+    low = np.where(used[..., None], polygons, np.inf).min(axis=1) - margin
+    high = np.where(used[..., None], polygons, -np.inf).max(axis=1) + margin
+    return low, high
 
 
 def _split(polygons: np.ndarray, sizes: np.ndarray, start: np.ndarray, across: np.ndarray,

@@ -218,3 +218,45 @@ def test_the_plane_groups_hold_faces_as_far_apart_as_parallel_allows():
     listed, group = overlaps._plane_groups(corners, normals, np.arange(len(corners)), np.arange(len(corners)))
     pairs = np.arange(0, len(corners), 2)
     assert _share_a_group(listed, group, pairs, pairs + 1).all()
+
+
+def test_a_pieces_reach_holds_every_segment_that_runs_inside_it():
+    """``contacts._reach``, the box each piece is tested against before a segment is measured
+    across it: every segment that ``_run_inside`` (the truth) finds running more than the
+    tolerance inside a convex piece grown by it lies in that box. The pieces are triangles in
+    random planes, slivers with corners of 0.5 to 5 degrees among them, cut by random lines
+    (``_split``), with a tolerance of 5 % of their size so that growing a sharp corner reaches far;
+    the segments pass close to the pieces' corners. Without the sharp corners' stretch it fails."""
+    from core.mesh.contacts import _reach, _run_inside, _split
+
+    rng = np.random.default_rng(7)
+    count = 4000
+    normals = rng.normal(size=(count, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    u = np.cross(normals, rng.normal(size=(count, 3)))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(normals, u)
+    tip = np.radians(np.where(np.arange(count) % 2 == 0, rng.uniform(0.5, 5.0, count), rng.uniform(20, 150, count)))
+    flat = np.stack([np.zeros((count, 2)), np.tile([1.0, 0.0], (count, 1)),
+                     rng.uniform(0.5, 1.5, count)[:, None] * np.stack([np.cos(tip), np.sin(tip)], axis=1)], axis=1)
+    triangles = flat[..., :1] * u[:, None] + flat[..., 1:] * v[:, None] + rng.normal(size=(count, 1, 3))
+    start = triangles.mean(axis=1)
+    across = np.cross(normals, rng.normal(size=(count, 3)))
+    across /= np.linalg.norm(across, axis=1, keepdims=True)
+    tolerance = np.full(count, 0.05)
+    positive, _, cuts = _split(triangles, np.full(count, 3), start, across, np.zeros(count))
+    polygons = np.where(cuts[:, None, None], positive[0], np.pad(triangles, ((0, 0), (0, positive[0].shape[1] - 3),
+                                                                            (0, 0))))
+    sizes = np.where(cuts, positive[1], 3)
+    low, high = _reach(polygons, sizes, normals, tolerance)
+    assert np.isfinite(low).all()  # no piece here is sharp enough to reach everywhere
+    for _ in range(20):  # segments from near a corner, past it, in random directions in the plane
+        corner = polygons[np.arange(count), rng.integers(0, sizes)]
+        heading = rng.normal(size=(count, 2))
+        offset = (heading[:, :1] * u + heading[:, 1:] * v) * rng.uniform(0.01, 0.5, (count, 1))
+        first = corner + offset * rng.uniform(-1.0, 0.2, (count, 1))
+        last = first + offset
+        runs = _run_inside(polygons, sizes, normals, first, last, tolerance) > tolerance
+        held = (low <= np.maximum(first, last)).all(axis=1) & (high >= np.minimum(first, last)).all(axis=1)
+        assert runs.any() and not runs.all()
+        assert held[runs].all(), np.flatnonzero(runs & ~held)
