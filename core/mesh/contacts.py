@@ -149,8 +149,7 @@ def _cut(corners: np.ndarray, target: np.ndarray, start: np.ndarray, end: np.nda
     corners padded to V. The triangles with most lines come first, so those still being cut are
     a leading run of the polygons, and the others are set aside once their last line is done (a
     table top that 400 cups' rims cut does not make every other piece wait 400 rounds). A round
-    measures a segment only across the pieces whose ``_reach`` holds its box (the breakfast room's
-    cuts 1.73 -> 0.95 s)."""
+    measures a segment only across the pieces whose ``_reach`` holds its box."""
     _, normals = areas_and_normals(corners)
     tolerance = CONTACT_TOLERANCE * longest_edges(corners)
     triangles, first_line, line_count = np.unique(target, return_index=True, return_counts=True)
@@ -190,8 +189,8 @@ def _cut(corners: np.ndarray, target: np.ndarray, start: np.ndarray, end: np.nda
             new_polygons[place, : points.shape[1]] = points[cuts]
             new_sizes[place] = count[cuts]
         low, high = np.repeat(low, copies, axis=0), np.repeat(high, copies, axis=0)
-        pieces, owner = np.concatenate([at[split], at[split] + 1]), np.tile(target[line[cuts]], 2)
-        low[pieces], high[pieces] = _reach(new_polygons[pieces], new_sizes[pieces], normals[owner], tolerance[owner])
+        halves, owner = np.concatenate([at[split], at[split] + 1]), np.tile(target[line[cuts]], 2)
+        low[halves], high[halves] = _reach(new_polygons[halves], new_sizes[halves], normals[owner], tolerance[owner])
         polygons, sizes, slot = new_polygons, new_sizes, np.repeat(slot, copies)
     finished.append((polygons, sizes, slot))
     sizes = np.concatenate([part[1] for part in finished])

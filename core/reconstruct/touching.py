@@ -35,7 +35,7 @@ across q is left to the linear reading.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Callable
+from typing import Protocol
 
 import numpy as np
 
@@ -66,7 +66,12 @@ MAX_POINTS = 25_000
 MAX_PROBED_PAIRS = 2048
 PAIRS_PER_BLOCK = 4096
 
-DirectLight = Callable[[np.ndarray, np.ndarray, bool], np.ndarray]
+
+class DirectLight(Protocol):
+    """The direct light G (m, >= C) at points (m, 3) facing unit normals (m, 3), read ``finely``
+    or not (``ArrivingLight.sharp``)."""
+
+    def __call__(self, points: np.ndarray, normals: np.ndarray, finely: bool) -> np.ndarray: ...
 
 
 @dataclass(frozen=True)
@@ -135,9 +140,7 @@ def read_touching(touching: Touching, mesh: Discretization, direct: DirectLight,
                   channels: int) -> tuple[NearField, np.ndarray, int]:
     """``touching.near`` (the touching pairs' reading points), the change (N + M, C) of the
     lighting G of the output nodes, then of the interpolation nodes, for the detail of the direct
-    light, and the number of pairs it changes; ``direct(points, normals, finely)`` gives (m, >= C)
-    the direct light G at points (m, 3) facing unit normals (m, 3), read finely or not
-    (``ArrivingLight.sharp``)."""
+    light, and the number of pairs it changes, from the ``direct`` light (``DirectLight``)."""
     near = touching.near
     points = np.concatenate([mesh.node_points, near.points])
     normals = np.concatenate([mesh.node_normals, near.normals])
@@ -156,7 +159,7 @@ def read_touching(touching: Touching, mesh: Discretization, direct: DirectLight,
     pair, share, middle, where, corner_light = (part[:MAX_POINTS]
                                                 for part in (pair, share, middle, where, corner_light))
     patch = near.patch[pair]
-    light = direct(middle, mesh.patch_normals[patch], False)[:, :channels]
+    light = direct(middle, mesh.patch_normals[patch], finely=False)[:, :channels]
     linear = np.einsum("kb,kbc->kc", where, corner_light)
     change = (share * near.form_factor[pair])[:, None] * mesh.patch_reflectance[patch, :channels] * (light - linear)
     for channel in range(channels):
@@ -169,7 +172,7 @@ def _corner_light(near: NearField, pairs: np.ndarray, points, normals, direct: D
     """(k, 3, C) the direct light at the corners of the patches of ``pairs``, where their corner
     colours are evaluated."""
     used, at_corner = np.unique(near.corner_receiver[pairs], return_inverse=True)
-    return direct(points[used], normals[used], True)[:, :channels][at_corner.reshape(-1, 3)]
+    return direct(points[used], normals[used], finely=True)[:, :channels][at_corner.reshape(-1, 3)]
 
 
 def _misread(middles, where, shares, normals, corner_light, direct: DirectLight, channels: int) -> np.ndarray:
@@ -180,7 +183,7 @@ def _misread(middles, where, shares, normals, corner_light, direct: DirectLight,
     probes = np.array([a * FINE_SHELLS + s for a in range(0, ANGLES, step) for s in PROBE_SHELLS])
     rows, cells = np.nonzero(shares[:, probes] > 0)
     cells = probes[cells]
-    light = direct(middles[rows, cells], normals[rows], False)[:, :channels].sum(axis=1)
+    light = direct(middles[rows, cells], normals[rows], finely=False)[:, :channels].sum(axis=1)
     linear = np.einsum("kb,kb->k", where[rows, cells], corner_light[rows].sum(axis=2))
     largest = np.maximum(corner_light.sum(axis=2).max(axis=1), 0.0)
     np.maximum.at(largest, rows, light)
