@@ -83,7 +83,7 @@ def monte_carlo_error(mesh: Discretization, colors: np.ndarray, standard_error: 
 def relative_rms(difference: np.ndarray, colors: np.ndarray, quiet: np.ndarray) -> float:
     """sqrt(mean |difference|^2) / mean |colors| over rows ``quiet`` (all rows if none is)."""
     chosen = quiet if quiet.any() else np.ones_like(quiet)
-    scale = _mean_colour(colors, quiet)
+    scale = _mean_colour(colors, chosen)
     return float(np.sqrt((difference[chosen] ** 2).mean()) / scale) if scale > 0 else 0.0
 
 

@@ -143,10 +143,10 @@ class FormFactorEngine:
             inside = np.flatnonzero(bounded)
             found, which = self._facing_in_boxes(points, normals, emitters[inside], low[inside], high[inside])
             receivers, chosen = np.concatenate([receivers, found]), np.concatenate([chosen, inside[which]])
-        size, finely = PAIRS_PER_BLOCK, np.full(len(points), finely)
+        size, fine = PAIRS_PER_BLOCK, np.full(len(points), finely)
         factors[receivers, chosen] = np.concatenate([np.zeros(0), *parallel.map_ordered(
             lambda start: self.point_form_factors(points, normals, receivers[start:start + size],
-                                                  emitters[chosen[start:start + size]], finely),
+                                                  emitters[chosen[start:start + size]], fine),
             range(0, len(receivers), size))])
         return emitters, factors
 
