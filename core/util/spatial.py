@@ -202,11 +202,6 @@ def _cell_size(sizes: np.ndarray, spread: float, times: float) -> float:
     return max(cell, spread / (1 << 20), np.finfo(float).tiny)
 
 
-def _boxes_touch(low_a, high_a, first, low_b, high_b, second) -> np.ndarray:
-    """Whether boxes ``first`` of a touch boxes ``second`` of b (index arrays that broadcast)."""
-    return ((low_a[first] <= high_b[second]) & (low_b[second] <= high_a[first])).all(axis=-1)
-
-
 def _listed_sizes(extent: np.ndarray, base: float) -> np.ndarray:
     """(n,) the size by which boxes of sides ``extent`` (n, 3) choose their grid (``_levels``):
     the largest side, or for a box over HUGE_BOX x ``base``, the larger of its smallest side and
@@ -323,12 +318,19 @@ def _cell_keys(cells: np.ndarray) -> np.ndarray:
 
 
 def _every_pair(low_a, high_a, chosen_a, low_b, high_b, chosen_b):
-    """The touching pairs of the chosen boxes of a with the chosen of b, all tested."""
+    """The touching pairs of the chosen boxes of a with the chosen of b, all tested (axis by axis,
+    on contiguous columns: several times faster than comparing rows of three)."""
     firsts, seconds = [np.zeros(0, dtype=np.int64)], [np.zeros(0, dtype=np.int64)]
     rows = max(1, PAIRS_PER_BLOCK // max(1, len(chosen_b)))
+    b_low, b_high = np.ascontiguousarray(low_b[chosen_b].T), np.ascontiguousarray(high_b[chosen_b].T)  # (3, m)
     for begin in range(0, len(chosen_a), rows):
         block = chosen_a[begin:begin + rows]
-        row, column = np.nonzero(_boxes_touch(low_a, high_a, block[:, None], low_b, high_b, chosen_b[None]))
+        a_low, a_high = low_a[block].T, high_a[block].T  # (3, k)
+        touch = (a_low[0, :, None] <= b_high[0]) & (b_low[0] <= a_high[0, :, None])
+        for axis in (1, 2):
+            touch &= a_low[axis, :, None] <= b_high[axis]
+            touch &= b_low[axis] <= a_high[axis, :, None]
+        row, column = np.nonzero(touch)
         firsts.append(block[row])
         seconds.append(chosen_b[column])
     return np.concatenate(firsts), np.concatenate(seconds)

@@ -36,12 +36,13 @@ def test_overlapping_boxes_finds_exactly_the_touching_pairs(monkeypatch, grid):
     np.testing.assert_array_equal(second, expected_second)
 
 
-@pytest.mark.parametrize("grid, blocks", [(True, None), (True, 7), (False, None)])
+@pytest.mark.parametrize("grid, blocks", [(True, None), (True, 7), (False, None), (False, 7)])
 def test_boxes_against_themselves_and_a_filter_give_exactly_the_touching_pairs_it_keeps(monkeypatch, grid, blocks):
     """One set against itself (each pair of different sizes found once and turned round) gives
     every pair both ways and each box with itself, as brute force does; ``keep``, which need not be
-    symmetric, drops exactly the pairs it rejects, each way on its own. So it does when the grid's
-    work is cut into ``blocks`` of a few candidates and queries (each pair made in one cell only)."""
+    symmetric, drops exactly the pairs it rejects, each way on its own. So it does when the work is
+    cut into ``blocks`` of a few candidates and queries (the grid's: each pair made in one cell only;
+    the direct test's: a row of boxes at a time)."""
     if grid:
         monkeypatch.setattr(spatial, "EVERY_PAIR", 0)
     if blocks:
