@@ -14,7 +14,7 @@ from ..scene import Scene
 from ..settings import METHODS
 from ..util import parallel, spatial, streams
 from ..util.geometry import longest_edges
-from ..util.progress import Report, heartbeat, quiet
+from ..util.progress import Report, quiet
 from . import hemicube, raycast, reach, receivers
 
 # Rays and point-patch pairs per block: about 0.03 s of work on one core, so that progress is
@@ -22,9 +22,15 @@ from . import hemicube, raycast, reach, receivers
 RAYS_PER_BLOCK = 1 << 18
 PAIRS_PER_BLOCK = 1 << 14
 # From this many receivers (patches and nodes) on, a ray-cast shot evaluates only those in the box
-# its source's own rays reach (``reach``): below it a box's rays cost more than they save (64
-# shots in one Cornell box: 0.15 s with boxes, 0.06 s without).
-REACH_RECEIVERS = 10_000
+# its source's own rays reach (``reach``), and a row from a point skips the patches whose boxes do
+# not hold it: below it a box's rays cost more than they save (64 shots in one Cornell box: 0.15 s
+# with boxes, 0.06 s without). In one room most boxes hold the room, and their rays cost
+# about what the few others spare: once REACH_TRIALS shots have been made, the engine goes on
+# making boxes while they spare on average at least REACH_GAIN of the receivers each
+# (docs/notes/experiments.md, "Shots and rows searched where the light reaches").
+REACH_RECEIVERS = 2_000
+REACH_TRIALS = 64
+REACH_GAIN = 0.25
 # A box that may hold more than this share of the receivers is not worth the search: the shot
 # evaluates them all by matrix products instead.
 REACH_SHARE = 0.5
@@ -77,6 +83,9 @@ class FormFactorEngine:
         self.resolution = hemicube_resolution
         self._ray_settings = (rays_per_form_factor, seed, probing)
         self.light_means = light_means
+        self._reach_record = [0, 0.0]  # shots whose boxes were made, and the receivers they spared (``_reaching``)
+        # the box each patch's light reaches, once its shots have made it (``_reach_boxes``)
+        self._reached = (np.full((mesh.patch_count, 3), -np.inf), np.full((mesh.patch_count, 3), np.inf))
         if method == "hemicube":
             hemicube.pixels(hemicube_resolution)  # validates the resolution
         else:
@@ -133,7 +142,7 @@ class FormFactorEngine:
         if len(emitters) == 0 or len(points) == 0:
             return emitters, factors
         bounded = np.zeros(len(emitters), dtype=bool)
-        if len(self._shot_receivers[0]) >= REACH_RECEIVERS:  # as a shot would: in their boxes (``reach``)
+        if self._reaching():  # as a shot would: in their boxes (``reach``)
             low, high = self._reach_of(emitters)
             bounded = self._few_inside(low, high)
         unbounded = np.flatnonzero(~bounded)
@@ -157,20 +166,34 @@ class FormFactorEngine:
         return spatial.points_in_boxes(points, low, high, lambda receivers, chosen: self._point_raycaster.faces(
             points[receivers], normals[receivers], sources[chosen]))
 
+    def _reaching(self) -> bool:
+        """Whether shots search the boxes their rays reach (``reach``): from REACH_RECEIVERS
+        receivers on, while the boxes made spare REACH_GAIN of the receivers each on average, or
+        fewer than REACH_TRIALS were made."""
+        made, spared = self._reach_record
+        return len(self._shot_receivers[0]) >= REACH_RECEIVERS and (made < REACH_TRIALS or spared >= REACH_GAIN * made)
+
     def _reach_of(self, patches: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``reach.reach_boxes`` of ``patches`` (k,), kept for the last patches asked about (the
         emitters: an engine ``with_surfaces`` shares them while they stay the same)."""
         kept = self.__dict__.get("_reach_kept")
         if kept is None or not np.array_equal(kept[0], patches):
-            mesh, boxes = self.mesh, []
-            for start in range(0, len(patches), REACH_BLOCK):
-                heartbeat()
-                chosen = patches[start:start + REACH_BLOCK]
-                boxes.append(reach.reach_boxes(mesh.patch_corners[chosen], mesh.patch_normals[chosen], chosen,
-                                               self.visibility, self._ray_settings[1]))
-            kept = (patches.copy(), *(np.concatenate(corners) for corners in zip(*boxes)))
+            kept = (patches.copy(), *self._reach_boxes(patches))
             self.__dict__["_reach_kept"] = kept
         return kept[1], kept[2]
+
+    def _reach_boxes(self, patches: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``reach.reach_boxes`` of ``patches`` (k,), in blocks of at most REACH_BLOCK on the pool's
+        threads (a patch's box follows from its own rays alone), kept for the rows (``_block``)."""
+        mesh = self.mesh
+        pieces = max(parallel.THREADS, -(-len(patches) // REACH_BLOCK))
+        blocks = np.array_split(patches, max(1, min(len(patches), pieces)))
+        boxes = list(parallel.map_ordered(lambda chosen: reach.reach_boxes(
+            mesh.patch_corners[chosen], mesh.patch_normals[chosen], chosen, self.visibility, self._ray_settings[1]),
+            blocks))
+        low, high = (np.concatenate(corners) for corners in zip(*boxes))
+        self._reached[0][patches], self._reached[1][patches] = low, high
+        return low, high
 
     @cached_property
     def _point_raycaster(self) -> raycast.RayCaster:
@@ -211,12 +234,18 @@ class FormFactorEngine:
                 np.stack([np.searchsorted(by_axis[axis], high[:, axis], side="right") for axis in range(3)]))
 
     def _few_inside(self, low: np.ndarray, high: np.ndarray) -> np.ndarray:
-        """(k,) bool: whether at most REACH_SHARE of the receivers can lie in each box (corners
-        (k, 3)), counted along the axis where the fewest lie within its sides; an unbounded box
-        holds them all."""
+        """(k,) bool: whether at most REACH_SHARE of the receivers lie in each box (corners (k, 3)),
+        which a shot then searches (``_shares_inside``)."""
+        return self._shares_inside(low, high) <= REACH_SHARE
+
+    def _shares_inside(self, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+        """(k,) the share of the receivers in each box (corners (k, 3)), taken as the product of
+        the shares within its sides along each axis (exact for rooms in a row or in a grid, where
+        any one axis' slab holds a row of rooms); 1 for an unbounded box. It only chooses how a
+        shot finds its receivers."""
         first, last = self._slabs(low, high)
-        within = (last - first).min(axis=0)
-        return np.isfinite(low).all(axis=1) & (within <= REACH_SHARE * len(self._shot_receivers[0]))
+        share = np.prod((last - first) / len(self._shot_receivers[0]), axis=0)
+        return np.where(np.isfinite(low).all(axis=1), share, 1.0)
 
     def _receivers_within(self, low: np.ndarray, high: np.ndarray) -> np.ndarray:
         """(m,) sorted: the receivers whose coordinate along one axis, the one where the fewest
@@ -231,17 +260,18 @@ class FormFactorEngine:
         return self.visibility.rays_cast
 
     def working_bytes(self) -> int:
-        """Estimated peak of the ray-cast sample points and of the temporary arrays of the blocks
-        in flight (one per thread, and one waiting): per ray-cast pair about 200 bytes plus 32
-        per ray, per hemicube ray about 100 bytes plus the block's dense rows (upper bounds,
-        from tracemalloc)."""
+        """Estimated peak of the ray-cast sample points and reach boxes and of the temporary
+        arrays of the blocks in flight (one per thread, and one waiting): per ray-cast pair about
+        200 bytes plus 32 per ray, and a block of rows' RAYS_PER_BLOCK pairs tested 40 bytes each;
+        per hemicube ray about 100 bytes plus the block's dense rows (upper bounds, from
+        tracemalloc)."""
         in_flight = parallel.THREADS + 1
         if self.method == "hemicube":
             rows = self._rows_per_block(0)
             return in_flight * (rows * len(hemicube.pixels(self.resolution)[1]) * 100
                                 + rows * self.mesh.patch_count * 16)
-        samples = self.raycaster.sample_bytes  # kept for the whole bake
-        return samples + in_flight * self._pairs_per_block() * (200 + 32 * self.raycaster.rays)
+        kept = self.raycaster.sample_bytes + sum(corners.nbytes for corners in self._reached)  # for the whole bake
+        return kept + in_flight * (self._pairs_per_block() * (200 + 32 * self.raycaster.rays) + 40 * RAYS_PER_BLOCK)
 
     def _pairs_per_block(self) -> int:
         return max(1, min(PAIRS_PER_BLOCK, RAYS_PER_BLOCK // self.raycaster.rays))
@@ -280,8 +310,9 @@ class FormFactorEngine:
                                for start in range(0, len(rows), size)] or [np.zeros((0, radiosity.shape[1]))])
 
     def _blocks(self, points, normals, sources, finish, report):
-        """finish(F block) for consecutive blocks of points, computed in parallel, in order."""
-        size = self._rows_per_block(len(sources))
+        """finish(F block) for consecutive blocks of points, computed in parallel, in order (at
+        least four a thread, so that they end together)."""
+        size = max(1, min(self._rows_per_block(len(sources)), -(-len(points) // (4 * parallel.THREADS))))
         starts = range(0, len(points), size)
 
         def one(start):
@@ -322,10 +353,12 @@ class FormFactorEngine:
         finely = np.arange(len(points)) >= mesh.patch_count  # the nodes read the emitters finely
         columns: list = [None] * len(sources)
         bounded = np.zeros(len(sources), dtype=bool)
-        if len(points) >= REACH_RECEIVERS:
-            low, high = reach.reach_boxes(mesh.patch_corners[sources], mesh.patch_normals[sources], sources,
-                                          self.visibility, self._ray_settings[1])  # (at most a batch of shots)
-            bounded = self._few_inside(low, high)
+        if self._reaching():
+            low, high = self._reach_boxes(sources)  # (at most a batch of shots)
+            share = self._shares_inside(low, high)
+            bounded = share <= REACH_SHARE
+            self._reach_record[0] += len(sources)
+            self._reach_record[1] += float((1.0 - share[bounded]).sum())
         unbounded = np.flatnonzero(~bounded)
         if len(unbounded):
             dense = np.zeros((len(points), len(unbounded)))
@@ -346,7 +379,7 @@ class FormFactorEngine:
                                                       high[inside])
             receivers = nearby[receivers]
             values = np.zeros(len(receivers))
-            size = self._pairs_per_block()
+            size = max(1, min(self._pairs_per_block(), -(-len(receivers) // parallel.THREADS)))  # every thread busy
             starts = range(0, len(receivers), size)
             for done, (start, part) in enumerate(zip(starts, parallel.map_ordered(
                     lambda start: self.raycaster.form_factors(points, normals, receivers[start:start + size],
@@ -420,16 +453,31 @@ class FormFactorEngine:
         return near, means
 
     def _rows_per_block(self, source_count: int) -> int:
+        """Points a block of rows takes: RAYS_PER_BLOCK hemicube rays, or RAYS_PER_BLOCK pairs
+        tested by ray casting (most of a room's face away: ``RayCaster.facing_pairs``)."""
         if self.method == "hemicube":
             return max(1, RAYS_PER_BLOCK // len(hemicube.pixels(self.resolution)[1]))
-        return max(1, self._pairs_per_block() // max(1, source_count))
+        return max(1, RAYS_PER_BLOCK // max(1, source_count))
 
     def _block(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray) -> np.ndarray:
+        """(m, k) form factors from points (m, 3) facing normals (m, 3) to the patches ``sources``
+        (k,); by ray casting, a point outside the box a source's shots reached (``_reach_boxes``)
+        is taken as unseen by it, as a shot takes it, and the pairs left are measured
+        PAIRS_PER_BLOCK at a time."""
         mesh = self.mesh
         if self.method == "hemicube":
             full = hemicube.form_factor_rows(points, normals, self.resolution, self.visibility, mesh)
             return full[:, sources]
-        return self.raycaster.grid_form_factors(points, normals, sources)
+        low, high = self._reached[0][sources], self._reached[1][sources]
+        receivers, chosen = self.raycaster.facing_pairs(points, normals, sources,
+                                                        (low, high) if np.isfinite(low).any() else None)
+        result = np.zeros((len(points), len(sources)))
+        size = self._pairs_per_block()
+        for start in range(0, len(receivers), size):
+            pairs = slice(start, start + size)
+            result[receivers[pairs], chosen[pairs]] = self.raycaster.form_factors(
+                points, normals, receivers[pairs], sources[chosen[pairs]])
+        return result
 
 
 def form_factor_matrix(

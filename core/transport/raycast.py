@@ -182,19 +182,30 @@ class RayCaster:
     def grid_form_factors(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray,
                           finely: np.ndarray | None = None) -> np.ndarray:
         """(m, k) form factors from every point (m, 3) facing normals (m, 3) to every patch of
-        ``sources`` (k,), ``finely`` as for ``form_factors``. The pairs that cannot see each
-        other (the point behind the source's plane, or the source below the point's horizon: most
-        pairs, in a room) are found by matrix products, and only the others are computed pair by
-        pair."""
-        corners = self.corners[sources]
-        ahead = points @ self.normals[sources].T > np.einsum("kx,kx->k", corners[:, 0], self.normals[sources])
-        heights = normals @ corners.reshape(-1, 3).T  # (m, 3k): corner c of source j at 3 j + c
-        highest = np.maximum(np.maximum(heights[:, 0::3], heights[:, 1::3]), heights[:, 2::3])
-        above = highest > np.einsum("mx,mx->m", points, normals)[:, None]
-        receivers, chosen = np.nonzero(ahead & above)
+        ``sources`` (k,), ``finely`` as for ``form_factors``: those of ``facing_pairs``, the others
+        zero."""
+        receivers, chosen = self.facing_pairs(points, normals, sources)
         result = np.zeros((len(points), len(sources)))
         result[receivers, chosen] = self.form_factors(points, normals, receivers, sources[chosen], finely)
         return result
+
+    def facing_pairs(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray,
+                     reach: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Index pairs (i, j), row by row, of the points (m, 3) facing normals (m, 3) and the
+        patches ``sources`` (k,) that may see each other, found by matrix products: not the point
+        behind the source's plane, nor the source below the point's horizon (most pairs, in a
+        room), nor, with ``reach``, the point outside the box (low and high corners (k, 3)) the
+        source's light reaches (``reach``)."""
+        corners = self.corners[sources]
+        seen = points @ self.normals[sources].T > np.einsum("kx,kx->k", corners[:, 0], self.normals[sources])
+        heights = normals @ corners.reshape(-1, 3).T  # (m, 3k): corner c of source j at 3 j + c
+        highest = np.maximum(np.maximum(heights[:, 0::3], heights[:, 1::3]), heights[:, 2::3])
+        seen &= highest > np.einsum("mx,mx->m", points, normals)[:, None]
+        if reach is not None:
+            for axis in range(3):
+                coordinate = points[:, axis, None]
+                seen &= (reach[0][:, axis] <= coordinate) & (coordinate <= reach[1][:, axis])
+        return np.nonzero(seen)
 
     def faces(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray) -> np.ndarray:
         """(n,) bool, pairwise: what ``grid_form_factors`` tests, for points (n, 3) facing normals

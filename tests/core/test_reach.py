@@ -12,7 +12,7 @@ from core import BakeSession, Scene, bake
 from core.mesh.discretize import discretised
 from core.transport import formfactors, reach
 from core.transport.formfactors import FormFactorEngine
-from tests.core.scenes import merge, quad
+from tests.core.scenes import box, merge, quad
 
 LIGHT = 10.0
 # The share of a source's power its box may lose through a thin opening all its rays missed: a
@@ -201,3 +201,85 @@ def test_a_box_that_may_hold_most_receivers_is_not_searched():
     low = np.array([[-0.1, -0.1, -0.1], [-0.1, -0.1, -0.1], [-np.inf] * 3])
     high = np.array([[0.9, 1.1, 1.1], [2.1, 1.1, 1.1], [np.inf] * 3])
     np.testing.assert_array_equal(engine._few_inside(low, high), [True, False, False])
+
+
+def grid_of_rooms() -> Scene:
+    """Four closed unit cubes (``tests.core.scenes.box``) 1.5 apart in a 2 x 2 grid, a light panel
+    under each one's ceiling: any slab along an axis through one room holds a row of two."""
+    parts = []
+    for dx in (0.0, 1.5):
+        for dy in (0.0, 1.5):
+            for vertices, triangles in (box(1.0), quad([0.35, 0.35, 0.98], [0, 0.3, 0], [0.3, 0, 0])):
+                parts.append((vertices + [dx, dy, 0.0], triangles))
+    vertices, triangles = merge(*parts)
+    lights = np.zeros(len(triangles), dtype=bool)
+    lights[12::14], lights[13::14] = True, True  # each room's last two triangles: its panel
+    emission = np.where(lights[:, None], LIGHT, 0.0) * np.ones(3)
+    return Scene(vertices, triangles, np.where(lights[:, None], 0.0, 0.5) * np.ones(3), emission)
+
+
+def test_a_box_is_searched_by_the_receivers_inside_it_not_in_its_slab(monkeypatch):
+    """``_few_inside`` against the receivers counted in each box one by one: in a 2 x 2 grid of
+    rooms the slab of a room's box holds half the receivers along every axis, more than the
+    REACH_SHARE set here, the box itself a quarter, and it is searched; a box around two rooms
+    or four is not."""
+    monkeypatch.setattr(formfactors, "REACH_SHARE", 0.4)
+    mesh, _ = discretised(grid_of_rooms(), 0.25, math.radians(30), True)
+    engine = FormFactorEngine(mesh, "raycast", 64, 16, 0, probing=True)
+    points = engine._shot_receivers[0]
+    low = np.array([[-0.1] * 3, [1.4, -0.1, -0.1], [-0.1, -0.1, -0.1], [-0.1, -0.1, -0.1]])
+    high = np.array([[1.1] * 3, [2.6, 1.1, 1.1], [2.6, 1.1, 1.1], [2.6, 2.6, 1.1]])
+    inside = np.array([((points >= a) & (points <= b)).all(axis=1).mean() for a, b in zip(low, high)])
+    np.testing.assert_allclose(inside, [0.25, 0.25, 0.5, 1.0])
+    np.testing.assert_array_equal(engine._few_inside(low, high), [True, True, False, False])
+    first, last = engine._slabs(low[:1], high[:1])
+    assert (last - first).min() > formfactors.REACH_SHARE * len(points)  # what the slab alone would say
+
+
+def test_rows_skip_the_patches_whose_shots_did_not_reach_them(monkeypatch):
+    """Once every patch has shot (its reach box kept), rows from the receivers of the two rooms to
+    every patch evaluate the pairs across the wall a tenth as often as without the boxes; each
+    pair alike or not at all, and what a row loses is within LEAK of its whole."""
+    mesh, _ = discretised(two_rooms(), 0.2, math.radians(30), True)
+    monkeypatch.setattr(formfactors, "REACH_SHARE", 1.0)
+    rows, across = [], []
+    for culled in (False, True):
+        monkeypatch.setattr(formfactors, "REACH_RECEIVERS", 0 if culled else 1 << 62)
+        engine = FormFactorEngine(mesh, "raycast", 64, 4, 0, probing=True)
+        patches = np.arange(mesh.patch_count)
+        for start in range(0, len(patches), 16):
+            engine.shooting_columns(patches[start:start + 16])
+        points, normals = engine._shot_receivers
+        evaluated, evaluate = [], engine.raycaster.form_factors
+
+        def recorded(points, normals, receivers, sources, *rest, evaluated=evaluated, evaluate=evaluate):
+            evaluated.append(((points[receivers] + 1e-3 * normals[receivers])[:, 0] > 1)
+                             != ((mesh.patch_centroids + 1e-3 * mesh.patch_normals)[sources, 0] > 1))
+            return evaluate(points, normals, receivers, sources, *rest)
+
+        monkeypatch.setattr(engine.raycaster, "form_factors", recorded)
+        rows.append(engine.gather_rows(points, normals, patches))
+        across.append(int(np.concatenate(evaluated).sum()))
+    full, culled = rows
+    assert across[0] > 1000 and across[1] <= 0.1 * across[0], across
+    assert ((np.abs(culled - full) <= 1e-12) | (culled == 0)).all()
+    assert ((full - culled).sum(axis=1) <= LEAK * np.maximum(full.sum(axis=1), 1e-12)).all()
+
+
+def test_in_one_room_the_boxes_stop_once_they_never_pay(monkeypatch):
+    """In one closed room the boxes hold the room and spare nothing: after REACH_TRIALS shots the
+    engine makes no more; in four rooms each spares three quarters of the receivers, and it goes
+    on."""
+    for scene, searching in ((grid_of_rooms(), True), (Scene(*box(1.0), np.full((12, 3), 0.5),
+                                                         np.where(np.arange(12)[:, None] < 2, LIGHT, 0.0) * np.ones(3)),
+                                                   False)):
+        mesh, _ = discretised(scene, 0.1, math.radians(30), True)
+        monkeypatch.setattr(formfactors, "REACH_RECEIVERS", 0)
+        engine = FormFactorEngine(mesh, "raycast", 64, 4, 0, probing=True)
+        patches = np.arange(formfactors.REACH_TRIALS + 16)
+        for start in range(0, len(patches), 16):
+            engine.shooting_columns(patches[start:start + 16])
+        assert engine._reaching() == searching
+        made = engine._reach_record[0]
+        engine.shooting_columns(patches[-16:] + 16)
+        assert (engine._reach_record[0] > made) == searching
