@@ -173,6 +173,16 @@ class FormFactorEngine:
         made, spared = self._reach_record
         return len(self._shot_receivers[0]) >= REACH_RECEIVERS and (made < REACH_TRIALS or spared >= REACH_GAIN * made)
 
+    def _searched(self, patches: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The reach boxes of ``patches`` (k,) (``_reach_boxes``) and (k,) bool, whether each is
+        worth searching (``_few_inside``), counted for ``_reaching``."""
+        low, high = self._reach_boxes(patches)
+        share = self._shares_inside(low, high)
+        bounded = share <= REACH_SHARE
+        self._reach_record[0] += len(patches)
+        self._reach_record[1] += float((1.0 - share[bounded]).sum())
+        return low, high, bounded
+
     def _reach_of(self, patches: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``reach.reach_boxes`` of ``patches`` (k,), kept for the last patches asked about (the
         emitters: an engine ``with_surfaces`` shares them while they stay the same)."""
@@ -311,7 +321,16 @@ class FormFactorEngine:
 
     def _blocks(self, points, normals, sources, finish, report):
         """finish(F block) for consecutive blocks of points, computed in parallel, in order (at
-        least four a thread, so that they end together)."""
+        least four a thread, so that they end together); by ray casting, the reach boxes of the
+        ``sources`` that have none made first while they pay (``_reaching``), so that a row skips
+        the patches whose light cannot reach it, as a shot would (Jacobi's and Gauss-Seidel's
+        matrix, the gathers at the nodes, in a scene of many rooms)."""
+        if self.raycaster is not None:
+            unknown = sources[~np.isfinite(self._reached[0][sources]).all(axis=1)]
+            for start in range(0, len(unknown), REACH_TRIALS):
+                if not self._reaching():
+                    break
+                self._searched(unknown[start:start + REACH_TRIALS])
         size = max(1, min(self._rows_per_block(len(sources)), -(-len(points) // (4 * parallel.THREADS))))
         starts = range(0, len(points), size)
 
@@ -354,11 +373,7 @@ class FormFactorEngine:
         columns: list = [None] * len(sources)
         bounded = np.zeros(len(sources), dtype=bool)
         if self._reaching():
-            low, high = self._reach_boxes(sources)  # (at most a batch of shots)
-            share = self._shares_inside(low, high)
-            bounded = share <= REACH_SHARE
-            self._reach_record[0] += len(sources)
-            self._reach_record[1] += float((1.0 - share[bounded]).sum())
+            low, high, bounded = self._searched(sources)  # (at most a batch of shots)
         unbounded = np.flatnonzero(~bounded)
         if len(unbounded):
             dense = np.zeros((len(points), len(unbounded)))
@@ -461,9 +476,9 @@ class FormFactorEngine:
 
     def _block(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray) -> np.ndarray:
         """(m, k) form factors from points (m, 3) facing normals (m, 3) to the patches ``sources``
-        (k,); by ray casting, a point outside the box a source's shots reached (``_reach_boxes``)
-        is taken as unseen by it, as a shot takes it, and the pairs left are measured
-        PAIRS_PER_BLOCK at a time."""
+        (k,); by ray casting, a point outside the box a source's light reaches (``_reach_boxes``,
+        where it was made) is taken as unseen by it, as a shot takes it, and the pairs left are
+        measured PAIRS_PER_BLOCK at a time."""
         mesh = self.mesh
         if self.method == "hemicube":
             full = hemicube.form_factor_rows(points, normals, self.resolution, self.visibility, mesh)

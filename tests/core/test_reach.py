@@ -236,10 +236,12 @@ def test_a_box_is_searched_by_the_receivers_inside_it_not_in_its_slab(monkeypatc
     assert (last - first).min() > formfactors.REACH_SHARE * len(points)  # what the slab alone would say
 
 
-def test_rows_skip_the_patches_whose_shots_did_not_reach_them(monkeypatch):
-    """Once every patch has shot (its reach box kept), rows from the receivers of the two rooms to
-    every patch evaluate the pairs across the wall a tenth as often as without the boxes; each
-    pair alike or not at all, and what a row loses is within LEAK of its whole."""
+@pytest.mark.parametrize("boxes_from", ["shots", "matrix"])
+def test_rows_skip_the_patches_whose_light_does_not_reach_them(monkeypatch, boxes_from):
+    """Once every patch's reach box is known (every patch has shot, or Jacobi's matrix made them
+    first), rows from the receivers of the two rooms to every patch evaluate the pairs across the
+    wall a tenth as often as without the boxes; each pair alike or not at all, and what a row
+    loses is within LEAK of its whole."""
     mesh, _ = discretised(two_rooms(), 0.2, math.radians(30), True)
     monkeypatch.setattr(formfactors, "REACH_SHARE", 1.0)
     rows, across = [], []
@@ -247,8 +249,9 @@ def test_rows_skip_the_patches_whose_shots_did_not_reach_them(monkeypatch):
         monkeypatch.setattr(formfactors, "REACH_RECEIVERS", 0 if culled else 1 << 62)
         engine = FormFactorEngine(mesh, "raycast", 64, 4, 0, probing=True)
         patches = np.arange(mesh.patch_count)
-        for start in range(0, len(patches), 16):
-            engine.shooting_columns(patches[start:start + 16])
+        if boxes_from == "shots":
+            for start in range(0, len(patches), 16):
+                engine.shooting_columns(patches[start:start + 16])
         points, normals = engine._shot_receivers
         evaluated, evaluate = [], engine.raycaster.form_factors
 
@@ -258,7 +261,10 @@ def test_rows_skip_the_patches_whose_shots_did_not_reach_them(monkeypatch):
             return evaluate(points, normals, receivers, sources, *rest)
 
         monkeypatch.setattr(engine.raycaster, "form_factors", recorded)
-        rows.append(engine.gather_rows(points, normals, patches))
+        if boxes_from == "shots":
+            rows.append(engine.gather_rows(points, normals, patches))
+        else:
+            rows.append(engine.patch_rows(patches))
         across.append(int(np.concatenate(evaluated).sum()))
     full, culled = rows
     assert across[0] > 1000 and across[1] <= 0.1 * across[0], across
