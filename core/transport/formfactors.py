@@ -83,8 +83,8 @@ class FormFactorEngine:
         self.resolution = hemicube_resolution
         self._ray_settings = (rays_per_form_factor, seed, probing)
         self.light_means = light_means
-        self._reach_record = [0, 0.0]  # shots whose boxes were made, and the receivers they spared (``_reaching``)
-        # the box each patch's light reaches, once its shots have made it (``_reach_boxes``)
+        self._reach_record = [0, 0.0]  # boxes made for shots and rows, the shares of receivers they spared
+        # the box each patch's light reaches, once made (``_reach_boxes``; unknown: unbounded)
         self._reached = (np.full((mesh.patch_count, 3), -np.inf), np.full((mesh.patch_count, 3), np.inf))
         if method == "hemicube":
             hemicube.pixels(hemicube_resolution)  # validates the resolution
@@ -167,9 +167,9 @@ class FormFactorEngine:
             points[receivers], normals[receivers], sources[chosen]))
 
     def _reaching(self) -> bool:
-        """Whether shots search the boxes their rays reach (``reach``): from REACH_RECEIVERS
-        receivers on, while the boxes made spare REACH_GAIN of the receivers each on average, or
-        fewer than REACH_TRIALS were made."""
+        """Whether shots and rows make and search the boxes their sources' rays reach (``reach``):
+        from REACH_RECEIVERS receivers on, while the boxes made spare REACH_GAIN of the receivers
+        each on average, or fewer than REACH_TRIALS were made."""
         made, spared = self._reach_record
         return len(self._shot_receivers[0]) >= REACH_RECEIVERS and (made < REACH_TRIALS or spared >= REACH_GAIN * made)
 
