@@ -289,3 +289,34 @@ def test_in_one_room_the_boxes_stop_once_they_never_pay(monkeypatch):
         made = engine._reach_record[0]
         engine.shooting_columns(patches[-16:] + 16)
         assert (engine._reach_record[0] > made) == searching
+
+
+def test_in_two_rooms_side_by_side_a_room_s_box_is_searched(monkeypatch):
+    """Two rooms in a row: the box of a shot from the light panel reaches a little past the wall
+    into the other room, so it holds more than half the receivers, and it is still searched
+    (REACH_SHARE): a shot costs its room, not both."""
+    monkeypatch.setattr(formfactors, "REACH_RECEIVERS", 0)
+    mesh, _ = discretised(two_rooms(), 0.1, math.radians(30), True)
+    engine = FormFactorEngine(mesh, "raycast", 64, 4, 0, probing=True)
+    lights = np.flatnonzero(mesh.patch_emission.any(axis=1))
+    low, high, searched = engine._searched(lights)
+    shares = engine._shares_inside(low, high)
+    assert (shares > 0.5).all() and searched.all(), shares
+
+
+def test_in_the_open_a_source_gets_no_box(monkeypatch):
+    """Two unit squares at a right angle, nothing around them: most of a floor patch's rays leave
+    the scene, and those that meet the wall near it would box in only its foot (the rest of the
+    wall is seen at grazing angles), so no patch gets a box, and with boxes on the floor's form
+    factor to the wall is still Howell's C-14, 0.2000438, to the centroid rule's 3e-3
+    (tests/core/test_extremes.py; with boxes from the rays that met the wall it read 0.182)."""
+    monkeypatch.setattr(formfactors, "REACH_RECEIVERS", 0)
+    monkeypatch.setattr(formfactors, "REACH_SHARE", 1.0)
+    vertices, triangles = merge(quad([0, 0, 0], [1, 0, 0], [0, 1, 0]), quad([0, 0, 0], [0, 1, 0], [0, 0, 1]))
+    matrix = formfactors.form_factor_matrix(vertices, triangles, "raycast", patch_size=1 / 16)
+    assert abs(matrix[:2, 2:].sum(axis=1).mean() - 0.2000438) < 3e-3
+    mesh, _ = discretised(Scene(vertices, triangles, np.full((4, 3), 0.5), np.zeros((4, 3))), 1 / 16,
+                          math.radians(30), True)
+    engine = FormFactorEngine(mesh, "raycast", 64, 4, 0)
+    low, _ = engine._reach_boxes(np.arange(mesh.patch_count))
+    assert not np.isfinite(low).any()
