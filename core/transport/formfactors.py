@@ -186,13 +186,12 @@ class FormFactorEngine:
         return low, high, bounded
 
     def _reach_of(self, patches: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``reach.reach_boxes`` of ``patches`` (k,), kept for the last patches asked about (the
-        emitters: an engine ``with_surfaces`` shares them while they stay the same)."""
-        kept = self.__dict__.get("_reach_kept")
-        if kept is None or not np.array_equal(kept[0], patches):
-            kept = (patches.copy(), *self._reach_boxes(patches))
-            self.__dict__["_reach_kept"] = kept
-        return kept[1], kept[2]
+        """``reach.reach_boxes`` of ``patches`` (k,), each made once (``_reach_boxes``; an engine
+        ``with_surfaces`` shares them, the geometry being the same)."""
+        missing = patches[~self._box_made[patches]]
+        if len(missing):
+            self._reach_boxes(missing)
+        return self._reached[0][patches], self._reached[1][patches]
 
     def _reach_boxes(self, patches: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``reach.reach_boxes`` of ``patches`` (k,), in blocks of at most REACH_BLOCK on the pool's

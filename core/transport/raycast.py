@@ -208,8 +208,8 @@ class RayCaster:
         return np.nonzero(seen)
 
     def faces(self, points: np.ndarray, normals: np.ndarray, sources: np.ndarray) -> np.ndarray:
-        """(n,) bool, pairwise: what ``grid_form_factors`` tests, for points (n, 3) facing normals
-        (n, 3) and the patches ``sources`` (n,)."""
+        """(n,) bool, pairwise: what ``facing_pairs`` tests without a reach box, for points (n, 3)
+        facing normals (n, 3) and the patches ``sources`` (n,)."""
         corners = self.corners[sources]
         ahead = np.einsum("nx,nx->n", points - corners[:, 0], self.normals[sources]) > 0
         highest = np.einsum("ncx,nx->nc", corners, normals).max(axis=1)
