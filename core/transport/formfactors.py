@@ -24,8 +24,8 @@ PAIRS_PER_BLOCK = 1 << 14
 # From this many receivers (patches and nodes) on, a ray-cast shot evaluates only those in the box
 # its source's own rays reach (``reach``), and a row from a point skips the patches whose boxes do
 # not hold it: below it a box's rays cost more than they save (64 shots in one Cornell box: 0.15 s
-# with boxes, 0.06 s without). In one room most boxes hold the room, and their rays cost
-# about what the few others spare: once REACH_TRIALS shots have been made, the engine goes on
+# with boxes, 0.06 s without). In one room most boxes hold the room, and their rays cost about what
+# the few others spare: once REACH_TRIALS boxes have been made (for shots or rows), it goes on
 # making boxes while they spare on average at least REACH_GAIN of the receivers each
 # (docs/notes/experiments.md, "Shots and rows searched where the light reaches").
 REACH_RECEIVERS = 2_000
